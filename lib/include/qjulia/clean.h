@@ -1,0 +1,40 @@
+#pragma once
+/// @file clean.h
+/// Cleaning: merge duplicate vertices, drop degenerate faces and dust components, keep the mesh
+/// closed, manifold and outward.
+#include <cstddef>
+#include <optional>
+
+#include "qjulia/mesh.h"
+#include "qjulia/progress.h"
+
+namespace qjulia {
+
+/// Options of clean().
+struct CleanOptions {
+  /// Remove components whose |volume| is below this (model units^3). Unset: a default that
+  /// removes sub-voxel specks, computed from `voxel_size`.
+  std::optional<double> min_component_volume;
+  /// The sampling voxel size (model units), for the default threshold; 0 = no default removal.
+  double voxel_size = 0.0;
+  ProgressFn progress;
+};
+
+/// What clean() did.
+struct CleanReport {
+  std::size_t components_before = 0;
+  std::size_t components_after = 0;
+  std::size_t removed_components = 0;
+  std::size_t removed_faces = 0;
+  std::size_t merged_vertices = 0;
+  std::size_t degenerate_faces_removed = 0;
+  double min_component_volume = 0.0;  ///< the threshold used
+};
+
+/// Cleans `mesh`. Closed, manifold, outward input stays so.
+TriMesh clean(const TriMesh& mesh, const CleanOptions& opts = {}, CleanReport* report = nullptr);
+
+/// Counts pairs of intersecting faces that share no vertex (CGAL). Slow on millions of faces.
+std::size_t count_self_intersections(const TriMesh& mesh);
+
+}  // namespace qjulia

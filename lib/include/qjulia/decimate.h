@@ -1,0 +1,31 @@
+#pragma once
+/// @file decimate.h
+/// Decimation to a face budget and/or an error bound, keeping the mesh closed and manifold.
+#include <cstddef>
+#include <optional>
+
+#include "qjulia/mesh.h"
+#include "qjulia/progress.h"
+
+namespace qjulia {
+
+/// Options of decimate(). At least one of faces / max_error is set.
+struct DecimateOptions {
+  std::optional<long long> faces;   ///< at most this many faces
+  std::optional<double> max_error;  ///< Hausdorff bound to the input, model units
+  ProgressFn progress;
+};
+
+/// What decimate() did.
+struct DecimateReport {
+  std::size_t faces_before = 0;
+  std::size_t faces_after = 0;
+  double hausdorff = 0.0;   ///< two-sided distance between input and output, model units
+  bool target_reached = true;  ///< false when the budget could not be met within the bound
+};
+
+/// Decimates `mesh`. @throws InvalidInput when neither bound is set or a bound is not positive.
+TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts,
+                 DecimateReport* report = nullptr);
+
+}  // namespace qjulia

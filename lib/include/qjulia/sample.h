@@ -1,0 +1,58 @@
+#pragma once
+/// @file sample.h
+/// Sampling the continuous field into a sparse grid (an openvdb::FloatGrid inside).
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "qjulia/params.h"
+#include "qjulia/progress.h"
+
+namespace qjulia {
+
+/// Options of sample().
+struct SampleOptions {
+  /// Evaluate every grid point instead of refining coarse blocks (the validation path).
+  bool dense = false;
+  /// Side of the coarse blocks, in voxels (a power of two, 2..64).
+  int coarse_block = 8;
+  /// Progress in [0, 1]; return false to cancel.
+  ProgressFn progress;
+};
+
+/// The sampled field. Grid point (i, j, k) sits at bounds.min + (i, j, k) * voxel_size; points
+/// beyond bounds.max are outside the box. Evaluated points hold F; uniform regions are inactive
+/// tiles whose value has the right sign.
+class SampledGrid {
+ public:
+  SampledGrid();
+  ~SampledGrid();
+  SampledGrid(SampledGrid&&) noexcept;
+  SampledGrid& operator=(SampledGrid&&) noexcept;
+
+  double voxel_size() const;                ///< model units
+  std::array<double, 3> origin() const;     ///< bounds.min
+  std::array<int, 3> points() const;        ///< grid points per axis (incl. both walls)
+  std::uint64_t evaluations() const;        ///< classifier calls made by sample()
+  std::uint64_t dense_evaluations() const;  ///< points a dense grid has
+  std::uint64_t crossing_cells() const;     ///< cells whose corners differ in sign
+  std::uint64_t active_voxels() const;      ///< evaluated points stored in the grid
+
+  /// Writes the grid as a .vdb file (a FloatGrid named "F", with the parameters and the
+  /// field's meaning as metadata). @throws std::runtime_error when the file cannot be written.
+  void write_vdb(const std::string& path, const std::string& params_json) const;
+
+  struct Impl;  ///< internal (lib/src/detail/grid_impl.h)
+  Impl& impl() { return *impl_; }
+  const Impl& impl() const { return *impl_; }
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Samples the solid of `params` (box and clip planes included).
+/// @throws InvalidInput when params do not validate; Cancelled when progress returns false.
+SampledGrid sample(const Params& params, const SampleOptions& opts = {});
+
+}  // namespace qjulia

@@ -1,0 +1,2 @@
+// classify: being written
+#include "qjulia/classify.h"

@@ -1,0 +1,2 @@
+// extract: being written
+#include "qjulia/extract.h"

@@ -1,0 +1,2 @@
+// Placeholder until the formula compiler lands.
+#include "qjulia/formula.h"

@@ -1,0 +1,2 @@
+// mesh: being written
+#include "qjulia/mesh.h"

@@ -1,0 +1,2 @@
+// params: being written
+#include "qjulia/params.h"

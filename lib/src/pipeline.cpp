@@ -1,0 +1,2 @@
+// pipeline: being written
+#include "qjulia/pipeline.h"

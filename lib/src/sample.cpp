@@ -1,0 +1,2 @@
+// sample: being written
+#include "qjulia/sample.h"

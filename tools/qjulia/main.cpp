@@ -1,0 +1,66 @@
+// qjulia: meshes of quaternionic Julia sets. Dispatches to the subcommands.
+#include <cstdio>
+#include <exception>
+#include <string>
+#include <vector>
+
+#include "commands.h"
+#include "qjulia/error.h"
+#include "qjulia/pipeline.h"
+
+namespace {
+
+constexpr const char* kUsage = R"(usage: qjulia COMMAND [ARGS]
+
+commands:
+  mesh [PARAMS.json] [options] -o OUT   mesh a Julia set (default: the Newton cubic, cut-off)
+  presets                               list the built-in presets
+  params --preset NAME                  print a preset as a parameter file
+  compare A B [options]                 compare two surfaces (meshes or parameter sets)
+  render MESH -o OUT.png [options]      draw a preview image
+  experiment NAME [options]             reproduce an experiment (table1, cardioid)
+  bench [options]                       measure the pipeline's speed
+  version                               print the version
+
+'qjulia COMMAND --help' describes a command's options.
+)";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace qjulia::cli;
+  if (argc < 2) {
+    std::fputs(kUsage, stderr);
+    return 2;
+  }
+  const std::string command = argv[1];
+  const Tokens args(argv + 2, argv + argc);
+  try {
+    if (command == "mesh") return cmd_mesh(args);
+    if (command == "presets") return cmd_presets(args);
+    if (command == "params") return cmd_params(args);
+    if (command == "compare") return cmd_compare(args);
+    if (command == "render") return cmd_render(args);
+    if (command == "experiment") return cmd_experiment(args);
+    if (command == "bench") return cmd_bench(args);
+    if (command == "version" || command == "--version") {
+      std::printf("qjulia %s\n", qjulia::version());
+      return 0;
+    }
+    if (command == "help" || command == "--help" || command == "-h") {
+      std::fputs(kUsage, stdout);
+      return 0;
+    }
+    std::fprintf(stderr, "qjulia: unknown command '%s' (try 'qjulia help')\n", command.c_str());
+    return 2;
+  } catch (const qjulia::InvalidInput& e) {
+    std::fprintf(stderr, "qjulia %s: %s\n", command.c_str(), e.what());
+    return 2;
+  } catch (const qjulia::Cancelled&) {
+    std::fprintf(stderr, "qjulia %s: cancelled\n", command.c_str());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "qjulia %s: error: %s\n", command.c_str(), e.what());
+    return 1;
+  }
+}
