@@ -3,5 +3,7 @@
 
 #include <stdexcept>
 namespace qjulia {
-CompareResult compare(const TriMesh&, const TriMesh&, const CompareOptions&) { throw std::runtime_error("compare: not built yet"); }
+CompareResult compare(const TriMesh&, const TriMesh&, const CompareOptions&) {
+  throw std::runtime_error("compare: not built yet");
+}
 }  // namespace qjulia

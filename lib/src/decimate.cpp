@@ -3,5 +3,7 @@
 
 #include <stdexcept>
 namespace qjulia {
-TriMesh decimate(const TriMesh&, const DecimateOptions&, DecimateReport*) { throw std::runtime_error("decimate: not built yet"); }
+TriMesh decimate(const TriMesh&, const DecimateOptions&, DecimateReport*) {
+  throw std::runtime_error("decimate: not built yet");
+}
 }  // namespace qjulia

@@ -3,6 +3,10 @@
 
 #include <stdexcept>
 namespace qjulia {
-Image render(const TriMesh&, const RenderOptions&) { throw std::runtime_error("render: not built yet"); }
-void write_png(const std::string&, const Image&) { throw std::runtime_error("render: not built yet"); }
+Image render(const TriMesh&, const RenderOptions&) {
+  throw std::runtime_error("render: not built yet");
+}
+void write_png(const std::string&, const Image&) {
+  throw std::runtime_error("render: not built yet");
+}
 }  // namespace qjulia

@@ -27,7 +27,7 @@ struct CompareOptions {
 struct CompareResult {
   MeshMeasure a, b;
   DirectedDistance a_to_b, b_to_a;
-  double hausdorff = 0;              ///< max(a_to_b.max, b_to_a.max)
+  double hausdorff = 0;                  ///< max(a_to_b.max, b_to_a.max)
   std::vector<float> a_vertex_distance;  ///< per vertex of a, distance to b
 };
 

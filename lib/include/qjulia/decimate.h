@@ -20,7 +20,7 @@ struct DecimateOptions {
 struct DecimateReport {
   std::size_t faces_before = 0;
   std::size_t faces_after = 0;
-  double hausdorff = 0.0;   ///< two-sided distance between input and output, model units
+  double hausdorff = 0.0;      ///< two-sided distance between input and output, model units
   bool target_reached = true;  ///< false when the budget could not be met within the bound
 };
 

@@ -23,11 +23,11 @@ enum class Shading { kSimple, kLambert, kPhong };
 struct RenderOptions {
   int width = 800, height = 800;  ///< pixels
   Shading shading = Shading::kPhong;
-  std::vector<std::array<double, 3>> lights;   ///< directions towards the lights (view space);
-                                               ///< empty = one default light
-  double ambient = 0.15;                       ///< 0..1
-  double specular = 0.4;                       ///< 0..1 (Phong only)
-  std::array<double, 3> rotate_deg{0, 0, 0};   ///< rotation about X, then Y, then Z, degrees
+  std::vector<std::array<double, 3>> lights;  ///< directions towards the lights (view space);
+                                              ///< empty = one default light
+  double ambient = 0.15;                      ///< 0..1
+  double specular = 0.4;                      ///< 0..1 (Phong only)
+  std::array<double, 3> rotate_deg{0, 0, 0};  ///< rotation about X, then Y, then Z, degrees
   std::array<std::uint8_t, 3> background{255, 255, 255};
 };
 
