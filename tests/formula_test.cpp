@@ -233,6 +233,23 @@ TEST(Formula, BalancedTreesFitTheRegisterFile) {
   expect_near(f.eval(Quat(1.001, 0, 0, 0), nullptr), Quat(std::pow(1.001, 256)), 1e-12);
 }
 
+TEST(Formula, RefusesMoreConstantsThanTheRegisterFileHolds) {
+  std::vector<std::string> names;
+  std::vector<Quat> values;
+  std::string sum = "h";
+  for (int n = 0; n < 40; ++n) {
+    names.push_back("a" + std::to_string(n));
+    values.push_back(Quat(n));
+    sum += "+a" + std::to_string(n);
+  }
+  EXPECT_NE(compile_error(sum, names).find("expected a smaller formula"), std::string::npos);
+  // Thirty constants fit, and unused ones take no register.
+  std::string thirty = "h";
+  for (int n = 0; n < 30; ++n) thirty += "+a" + std::to_string(n);
+  const Formula f = Formula::compile(thirty, names);
+  expect_near(f.eval(Quat(1), values.data()), Quat(1 + 29 * 30 / 2), 0);
+}
+
 TEST(Formula, NewtonMapOfTheCubeFixesTheCubeRootsOfUnity) {
   const Formula f = Formula::compile("(2*h^3+1)/(3*h^2)", {});
   const double s = std::sqrt(3.0) / 2;
