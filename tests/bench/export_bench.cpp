@@ -1,5 +1,6 @@
 // Writes and reads a ~5M-triangle mesh (a 2x2 grid of fine tori, with colours) in every format
-// and prints seconds and MB/s. Usage: export_bench [DIR] [--tris N]   (default DIR: /tmp)
+// and prints seconds and MB/s. Usage: export_bench [DIR] [--tris N] [--no-colors]
+// (default DIR: /tmp; the files stay there as qjulia_export_bench.*, for the validators).
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -52,8 +53,11 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 int main(int argc, char** argv) {
   std::string dir = "/tmp";
   std::size_t tris = 5'000'000;
+  bool colors = true;
   for (int i = 1; i < argc; ++i) {
-    if (std::strcmp(argv[i], "--tris") == 0 && i + 1 < argc) {
+    if (std::strcmp(argv[i], "--no-colors") == 0) {
+      colors = false;
+    } else if (std::strcmp(argv[i], "--tris") == 0 && i + 1 < argc) {
       tris = std::stoul(argv[++i]);
     } else {
       dir = argv[i];
@@ -61,8 +65,10 @@ int main(int argc, char** argv) {
   }
   auto t0 = std::chrono::steady_clock::now();
   qjulia::TriMesh mesh = torus_grid(tris);
-  std::printf("mesh: %zu vertices, %zu triangles, with colours (built in %.2f s)\n",
-              mesh.vertex_count(), mesh.face_count(), seconds_since(t0));
+  if (!colors) mesh.colors.clear();
+  std::printf("mesh: %zu vertices, %zu triangles, %s colours (built in %.2f s)\n",
+              mesh.vertex_count(), mesh.face_count(), colors ? "with" : "without",
+              seconds_since(t0));
   std::printf("%-6s %10s %9s %9s %9s %9s\n", "format", "MB", "write s", "write MB/s", "read s",
               "read MB/s");
   for (const char* ext : {".glb", ".gltf", ".obj", ".ply", ".stl", ".3mf"}) {
