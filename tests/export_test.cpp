@@ -224,6 +224,8 @@ TEST(Export, GltfAssetExtrasIsTheParameterObjectAndGeneratorNamesQjulia) {
   EXPECT_EQ(doc["asset"]["extras"], nlohmann::json::parse(kParams));
   EXPECT_EQ(doc["asset"]["generator"].get<std::string>().rfind("qjulia ", 0), 0u);
   EXPECT_EQ(doc["buffers"][0]["uri"], "m.bin");
+  EXPECT_EQ(qjulia::output_files(path), (std::vector<std::string>{path, dir.file("m.bin")}));
+  EXPECT_EQ(qjulia::output_files("a.GLB"), std::vector<std::string>{"a.GLB"});
   EXPECT_TRUE(fs::exists(dir.file("m.bin")));
   EXPECT_EQ(doc["meshes"].size(), 1u);
   EXPECT_EQ(doc["meshes"][0]["primitives"].size(), 1u);

@@ -185,6 +185,11 @@ MeshFormat format_from_path(const std::string& path) {
                      " (use .glb, .gltf, .obj, .ply, .stl or .3mf)");
 }
 
+std::vector<std::string> output_files(const std::string& path) {
+  if (format_from_path(path) != MeshFormat::kGltf) return {path};
+  return {path, path.substr(0, path.find_last_of('.')) + ".bin"};
+}
+
 const char* extension_of(MeshFormat format) {
   switch (format) {
     case MeshFormat::kGlb:

@@ -1,5 +1,8 @@
 // Wavefront OBJ writer: `v x y z [r g b]`, `vn`, `f a//a b//b c//c`, parameters as comments.
+#include <tbb/parallel_for.h>
+
 #include <charconv>
+#include <functional>
 
 #include "detail/atomic_file.h"
 #include "detail/mesh_io.h"
@@ -24,6 +27,28 @@ inline char* put_index(char* p, uint32_t i) {
   return p + n;
 }
 
+/// Formats lines [0, count) with `line(i, out) -> end` (at most `max_len` bytes each) in
+/// parallel blocks and writes them in order; memory stays bounded by one batch of blocks.
+void write_lines(BufferedWriter& out, std::size_t count, std::size_t max_len,
+                 const std::function<char*(std::size_t, char*)>& line) {
+  constexpr std::size_t kBlock = 32768;
+  constexpr std::size_t kBatch = 16;
+  std::vector<std::string> blocks(kBatch);
+  for (std::size_t first = 0; first < count; first += kBlock * kBatch) {
+    const std::size_t nblocks = std::min(kBatch, (count - first + kBlock - 1) / kBlock);
+    tbb::parallel_for(std::size_t(0), nblocks, [&](std::size_t b) {
+      const std::size_t begin = first + b * kBlock;
+      const std::size_t end = std::min(count, begin + kBlock);
+      std::string& s = blocks[b];
+      s.resize((end - begin) * max_len);
+      char* p = s.data();
+      for (std::size_t i = begin; i < end; ++i) p = line(i, p);
+      s.resize(std::size_t(p - s.data()));
+    });
+    for (std::size_t b = 0; b < nblocks; ++b) out.put(blocks[b]);
+  }
+}
+
 }  // namespace
 
 void write_obj(const std::string& path, const ExportData& data) {
@@ -36,33 +61,27 @@ void write_obj(const std::string& path, const ExportData& data) {
   for (const auto& line : data.params_lines) out.put(std::string("# ") + kParamsTag + line + "\n");
   out.put("o qjulia\n");
   const bool colored = !data.colors.empty();
-  for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
-    char* p = out.reserve(256);
-    char* q = p;
+  write_lines(out, mesh.positions.size(), 256, [&](std::size_t v, char* q) {
     *q++ = 'v';
     for (int i = 0; i < 3; ++i) q = put_float(q, mesh.positions[v][i]);
     if (colored)
       for (int i = 0; i < 3; ++i) q = put_float(q, linear_to_srgb(data.colors[v][i]));
     *q++ = '\n';
-    out.advance(std::size_t(q - p));
-  }
-  for (const auto& n : data.normals) {
-    char* p = out.reserve(128);
-    char* q = p;
+    return q;
+  });
+  write_lines(out, data.normals.size(), 128, [&](std::size_t v, char* q) {
     *q++ = 'v';
     *q++ = 'n';
-    for (int i = 0; i < 3; ++i) q = put_float(q, n[i]);
+    for (int i = 0; i < 3; ++i) q = put_float(q, data.normals[v][i]);
     *q++ = '\n';
-    out.advance(std::size_t(q - p));
-  }
-  for (const auto& t : mesh.triangles) {
-    char* p = out.reserve(128);
-    char* q = p;
+    return q;
+  });
+  write_lines(out, mesh.triangles.size(), 128, [&](std::size_t f, char* q) {
     *q++ = 'f';
-    for (int i = 0; i < 3; ++i) q = put_index(q, t[i] + 1);
+    for (int i = 0; i < 3; ++i) q = put_index(q, mesh.triangles[f][i] + 1);
     *q++ = '\n';
-    out.advance(std::size_t(q - p));
-  }
+    return q;
+  });
   out.flush();
   file.commit();
 }

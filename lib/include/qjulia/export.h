@@ -2,6 +2,7 @@
 /// @file export.h
 /// Writing and reading meshes: glTF 2.0 (.glb, .gltf + .bin), OBJ, PLY, STL, 3MF.
 #include <string>
+#include <vector>
 
 #include "qjulia/mesh.h"
 #include "qjulia/progress.h"
@@ -46,6 +47,11 @@ TriMesh read_mesh(const std::string& path);
 /// comments, 3MF metadata), pretty-printed JSON; "" when the file records none (STL).
 /// @throws InvalidInput like read_mesh().
 std::string read_mesh_params(const std::string& path);
+
+/// The files write_mesh(path, ...) creates: `path`, and for .gltf also its .bin (same base
+/// name), so a caller that must remove them again (a later step failed) removes both.
+/// @throws InvalidInput for an unknown extension.
+std::vector<std::string> output_files(const std::string& path);
 
 /// The extension of a format, with the dot (".glb").
 const char* extension_of(MeshFormat format);
