@@ -9,6 +9,7 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <set>
 
 #include "qjulia/error.h"
@@ -382,4 +383,35 @@ TEST(Export, ReadersAcceptOtherProgramsVariants) {
       "vertex -0 1 0\nendloop\nendfacet\nendsolid t\n"));
   EXPECT_EQ(stl.positions.size(), 4u);
   EXPECT_EQ(stl.triangles.size(), 2u);
+}
+
+TEST(Export, CorruptedFilesEitherReadOrThrowInvalidInput) {
+  // A poor man's fuzzer: random byte flips and cuts of valid files must never crash a reader
+  // or throw anything but InvalidInput.
+  std::mt19937 rng(12345);
+  for (const auto& ext : kExtensions) {
+    SCOPED_TRACE(ext);
+    TempDir dir;
+    TriMesh mesh = icosphere(1);
+    paint(mesh);
+    const std::string good = dir.file("good" + ext);
+    qjulia::write_mesh(good, mesh, {kParams, "mm", {}});
+    std::ifstream in(good, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string path = dir.file("bad" + ext);
+    for (int round = 0; round < 150; ++round) {
+      std::string b = bytes;
+      const int flips = 1 + int(rng() % 8);
+      for (int k = 0; k < flips; ++k) b[rng() % b.size()] = char(rng());
+      if (round % 3 == 0) b.resize(rng() % b.size());
+      write_text(path, b);
+      try {
+        const TriMesh m = qjulia::read_mesh(path);
+        for (const auto& t : m.triangles)
+          for (uint32_t i : t) ASSERT_LT(i, m.positions.size());
+        qjulia::read_mesh_params(path);
+      } catch (const InvalidInput&) {
+      }
+    }
+  }
 }

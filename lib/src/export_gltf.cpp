@@ -218,8 +218,7 @@ std::vector<std::array<float, 3>> read_vec3(const std::string& path, const tinyg
   }
   if (csize != 4 && !a.normalized)
     fail(path, std::string(what) + " integer accessor must be normalized");
-  std::vector<std::array<float, 3>> out(a.count);
-  if (a.count == 0) return out;
+  if (a.count == 0) return {};
   if (a.bufferView < 0 || std::size_t(a.bufferView) >= m.bufferViews.size())
     fail(path, std::string(what) + " accessor has no buffer view");
   const tinygltf::BufferView& v = m.bufferViews[a.bufferView];
@@ -229,11 +228,13 @@ std::vector<std::array<float, 3>> read_vec3(const std::string& path, const tinyg
   const std::size_t elem = std::size_t(csize) * comps;
   const std::size_t stride = v.byteStride ? v.byteStride : elem;
   const std::size_t begin = v.byteOffset + a.byteOffset;
-  if (v.byteOffset + v.byteLength > buf.size() ||
-      a.byteOffset + (a.count - 1) * stride + elem > v.byteLength) {
+  if (v.byteOffset > buf.size() || v.byteLength > buf.size() ||
+      v.byteOffset + v.byteLength > buf.size() || a.count > v.byteLength || stride > 256 ||
+      a.byteOffset > v.byteLength || a.byteOffset + (a.count - 1) * stride + elem > v.byteLength) {
     fail(path,
          std::string(what) + " accessor reaches past the end of its buffer (truncated file?)");
   }
+  std::vector<std::array<float, 3>> out(a.count);  // after the bounds check: count is trusted
   const unsigned char* p = buf.data() + begin;
   for (std::size_t i = 0; i < a.count; ++i, p += stride) {
     for (int k = 0; k < 3; ++k) {
@@ -269,8 +270,7 @@ std::vector<uint32_t> read_indices(const std::string& path, const tinygltf::Mode
     default:
       fail(path, "the index accessor has an unsupported component type");
   }
-  std::vector<uint32_t> out(a.count);
-  if (a.count == 0) return out;
+  if (a.count == 0) return {};
   if (a.bufferView < 0 || std::size_t(a.bufferView) >= m.bufferViews.size())
     fail(path, "the index accessor has no buffer view");
   const tinygltf::BufferView& v = m.bufferViews[a.bufferView];
@@ -278,10 +278,12 @@ std::vector<uint32_t> read_indices(const std::string& path, const tinygltf::Mode
     fail(path, "the index buffer view has no buffer");
   const auto& buf = m.buffers[v.buffer].data;
   const std::size_t stride = v.byteStride ? v.byteStride : csize;
-  if (v.byteOffset + v.byteLength > buf.size() ||
-      a.byteOffset + (a.count - 1) * stride + csize > v.byteLength) {
+  if (v.byteOffset > buf.size() || v.byteLength > buf.size() ||
+      v.byteOffset + v.byteLength > buf.size() || a.count > v.byteLength || stride > 256 ||
+      a.byteOffset > v.byteLength || a.byteOffset + (a.count - 1) * stride + csize > v.byteLength) {
     fail(path, "the index accessor reaches past the end of its buffer (truncated file?)");
   }
+  std::vector<uint32_t> out(a.count);
   const unsigned char* p = buf.data() + v.byteOffset + a.byteOffset;
   if (csize == 4 && stride == 4) {
     std::memcpy(out.data(), p, a.count * 4);

@@ -411,8 +411,19 @@ TriMesh read_ply(const std::string& path) {
   if (!ended) fail(path, "the header is truncated (no end_header)");
   if (format < 0) fail(path, "the header has no format line");
 
-  // Sanity before allocating: a binary body must hold at least the fixed-size part.
-  if (format != 0) {
+  // Sanity before allocating: the body must hold at least the fixed-size part (binary), or
+  // two characters per value (ascii: a digit and a separator).
+  if (format == 0) {
+    std::size_t need = 0;
+    for (const auto& e : elements) {
+      if (e.props.size() && e.count > (text.size() - pos) / (2 * e.props.size()) + 1) {
+        fail(path,
+             "the file is truncated (element '" + e.name + "' needs more data than the file has)");
+      }
+      need += 2 * e.props.size() * e.count;
+    }
+    if (need > text.size() - pos + 1) fail(path, "the file is truncated (data ends early)");
+  } else {
     std::size_t need = 0;
     for (const auto& e : elements) {
       std::size_t rec = 0;
