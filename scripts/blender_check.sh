@@ -65,6 +65,9 @@ for preset in $PRESETS; do
       result="blender_import exit $rc: $(grep -E 'RESULT|rror' "$file.blender.log" | tail -1)"
     elif [[ "$bv" != "$qv" || "$bf" != "$qf" ]]; then
       result="counts differ"
+      # STL has no indices: distinct vertices at one position are welded, and the triangles
+      # between them (zero-length edges) become degenerate and are dropped by Blender.
+      [[ $fmt == stl ]] && result+=" (distinct vertices at equal positions? mesh_report.py on the .glb: 'duplicated positions')"
     fi
     printf '%-28s %-5s %10s %10s %10s %10s  %s\n' "$preset" "$fmt" "$qv" "${bv:-?}" "$qf" "${bf:-?}" "$result"
     if [[ $result == OK ]]; then
