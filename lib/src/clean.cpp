@@ -66,7 +66,7 @@ std::size_t weld_exact(const TriMesh& mesh, std::vector<uint32_t>& remap) {
 std::pair<std::size_t, std::size_t> fix_zero_area(TriMesh& mesh) {
   auto& tris = mesh.triangles;
   const auto& pos = mesh.positions;
-  constexpr double kZero = 1e-10;   // |cross| <= kZero * longest^2 is zero area
+  constexpr double kZero = 1e-6;    // |cross| <= kZero * longest^2: zero in float precision
   constexpr double kNeedle = 1e-4;  // shortest <= kNeedle * longest is a needle
   std::vector<uint32_t> degenerate;
   for (uint32_t f = 0; f < tris.size(); ++f) {

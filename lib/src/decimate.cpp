@@ -106,11 +106,16 @@ std::vector<std::array<uint32_t, 3>> simplify_manifold(const TriMesh& mesh,
       ring.swap(next);
     }
   };
-  // Vertices already non-manifold in the input (or pinched where a chunk was cut) stay as they
-  // are: their faces are frozen from the start and they are not counted as new defects.
-  const std::vector<uint32_t> input_bad =
-      detail::check_topology(mesh, /*allow_boundary=*/true).bad_vertices;
-  if (!input_bad.empty()) freeze(input_bad, 1);
+  // Vertices already non-manifold in the input stay as they are: their faces are frozen from the
+  // start and they are not counted as new defects. So are the faces around a chunk's cut: then
+  // no two chunks can both join the same pair of cut vertices (a non-manifold edge that neither
+  // chunk would see), as the vertices a chunk may connect belong to it alone.
+  const auto input_topology = detail::check_topology(mesh, /*allow_boundary=*/true);
+  const std::vector<uint32_t>& input_bad = input_topology.bad_vertices;
+  std::vector<uint32_t> seeds = input_bad;
+  seeds.insert(seeds.end(), input_topology.boundary_vertices.begin(),
+               input_topology.boundary_vertices.end());
+  if (!seeds.empty()) freeze(seeds, 1);
   TriMesh out;
   for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
     out.triangles = simplify_once(mesh, frozen, target_faces, rel_error);
@@ -233,6 +238,9 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
   const std::size_t budget = opts.faces ? static_cast<std::size_t>(*opts.faces) : std::size_t(0);
   if (mesh.triangles.empty() || (opts.faces && budget >= mesh.face_count())) {
     rep.faces_after = mesh.face_count();
+    const auto topo = detail::check_topology(mesh);
+    rep.closed = topo.closed();
+    rep.manifold = topo.manifold() && topo.oriented();
     if (report) *report = rep;
     return mesh;
   }
@@ -244,12 +252,13 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
   // when the measured distance exceeds the bound, the bound is tightened and the work redone.
   double abs_error = opts.max_error ? *opts.max_error : 1e30;
   TriMesh out;
+  bool use_chunks = mesh.face_count() >= 2 * kChunkFaces;
   for (int attempt = 0; attempt < 6; ++attempt) {
     TriMesh work;  // positions shared with the input; triangles as simplified so far
     work.positions = mesh.positions;
     work.triangles = mesh.triangles;
     const std::size_t threads = std::max(1u, std::thread::hardware_concurrency());
-    if (mesh.face_count() >= 2 * kChunkFaces) {
+    if (use_chunks) {
       const std::size_t chunks =
           std::max<std::size_t>(2 * threads, (mesh.face_count() + kChunkFaces - 1) / kChunkFaces);
       // Stage 1 stops at twice the budget so that stage 2 has room to dissolve the seams.
@@ -271,6 +280,18 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
     out = std::move(work);
     if (debug)
       std::fprintf(stderr, "decimate: -> %zu faces, %.2f s\n", out.face_count(), seconds_since(t0));
+    // Safety net: a defect that the chunk-wise checks could not see means redoing it in one piece
+    // (unless the input had the defect already).
+    const auto topo = detail::check_topology(out);
+    rep.closed = topo.closed();
+    rep.manifold = topo.manifold() && topo.oriented();
+    if (use_chunks && !(rep.closed && rep.manifold)) {
+      const auto in = detail::check_topology(mesh);
+      if (in.closed() && in.manifold() && in.oriented()) {
+        use_chunks = false;
+        continue;
+      }
+    }
     report_progress(opts.progress, 0.7);
     rep.hausdorff = detail::hausdorff_distance(mesh, out).distance();
     if (debug)

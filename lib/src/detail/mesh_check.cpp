@@ -91,6 +91,8 @@ TopologyCheck check_topology(const TriMesh& mesh, bool allow_boundary) {
     if (n == 1) {
       ++out.boundary_edges;
       is_bad = !allow_boundary;
+      out.boundary_vertices.push_back(static_cast<uint32_t>(keys[i] >> 33));
+      out.boundary_vertices.push_back(static_cast<uint32_t>((keys[i] >> 1) & 0xffffffffu));
     } else if (n > 2) {
       ++out.nonmanifold_edges;
       is_bad = true;
@@ -129,6 +131,10 @@ TopologyCheck check_topology(const TriMesh& mesh, bool allow_boundary) {
       ++out.nonmanifold_vertices;
       bad.push_back(static_cast<uint32_t>(v));
     }
+  std::sort(out.boundary_vertices.begin(), out.boundary_vertices.end());
+  out.boundary_vertices.erase(
+      std::unique(out.boundary_vertices.begin(), out.boundary_vertices.end()),
+      out.boundary_vertices.end());
   std::sort(bad.begin(), bad.end());
   bad.erase(std::unique(bad.begin(), bad.end()), bad.end());
   out.bad_vertices = std::move(bad);

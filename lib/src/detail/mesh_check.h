@@ -12,13 +12,14 @@ namespace qjulia::detail {
 /// Edge and vertex topology of a triangle mesh.
 struct TopologyCheck {
   std::size_t edges = 0;
-  std::size_t boundary_edges = 0;        ///< edges with one face
-  std::size_t nonmanifold_edges = 0;     ///< edges with more than two faces
-  std::size_t misoriented_edges = 0;     ///< two faces traversing the edge the same way
-  std::size_t nonmanifold_vertices = 0;  ///< vertices whose faces form more than one fan
-  std::size_t degenerate_faces = 0;      ///< repeated vertex index
-  std::vector<uint32_t> bad_vertices;    ///< vertices of non-manifold/boundary/misoriented edges
-                                         ///< and non-manifold vertices (sorted, unique)
+  std::size_t boundary_edges = 0;           ///< edges with one face
+  std::size_t nonmanifold_edges = 0;        ///< edges with more than two faces
+  std::size_t misoriented_edges = 0;        ///< two faces traversing the edge the same way
+  std::size_t nonmanifold_vertices = 0;     ///< vertices whose faces form more than one fan
+  std::size_t degenerate_faces = 0;         ///< repeated vertex index
+  std::vector<uint32_t> boundary_vertices;  ///< vertices of boundary edges (sorted, unique)
+  std::vector<uint32_t> bad_vertices;       ///< vertices of non-manifold/boundary/misoriented edges
+                                            ///< and non-manifold vertices (sorted, unique)
   bool closed() const { return boundary_edges == 0 && nonmanifold_edges == 0; }
   bool manifold() const { return nonmanifold_edges == 0 && nonmanifold_vertices == 0; }
   bool oriented() const { return misoriented_edges == 0; }
