@@ -256,6 +256,7 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
   for (int attempt = 0; attempt < 6; ++attempt) {
     TriMesh work;  // positions shared with the input; triangles as simplified so far
     work.positions = mesh.positions;
+    work.colors = mesh.colors;
     work.triangles = mesh.triangles;
     const std::size_t threads = std::max(1u, std::thread::hardware_concurrency());
     if (use_chunks) {
@@ -299,6 +300,8 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
     if (!opts.max_error || rep.hausdorff <= *opts.max_error) break;
     abs_error *= 0.8 * (*opts.max_error / rep.hausdorff);
   }
+  // Input normals describe the fine surface; the caller recomputes them for the coarse one.
+  out.normals.clear();
   rep.faces_after = out.face_count();
   rep.target_reached = (!opts.faces || rep.faces_after <= budget) &&
                        (!opts.max_error || rep.hausdorff <= *opts.max_error);

@@ -1,6 +1,7 @@
 // Decimation benchmark: a bumpy icosphere (level 9: 5.24M faces) decimated to 10%; prints input
-// faces per second and the peak RSS. Usage: decimate_bench [LEVEL] [RATIO] [--self-intersections]
-// or decimate_bench --ply FILE RATIO (a binary little-endian PLY with float xyz, uint/int lists).
+// faces per second and the peak RSS.
+// Usage: decimate_bench [LEVEL] [RATIO] [--self-intersections]
+//        decimate_bench --preset NAME RESOLUTION RATIO   (a real fractal mesh from the pipeline)
 #include <sys/resource.h>
 
 #include <chrono>
@@ -12,10 +13,17 @@
 #include "../clean_fixtures.h"
 #include "qjulia/clean.h"
 #include "qjulia/decimate.h"
+#include "qjulia/params.h"
+#include "qjulia/pipeline.h"
 
 namespace {
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+double cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 long peak_rss_mb() {
   rusage u{};
@@ -25,13 +33,27 @@ long peak_rss_mb() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  int level = argc > 1 ? std::atoi(argv[1]) : 9;
-  double ratio = argc > 2 ? std::atof(argv[2]) : 0.1;
-  bool self = argc > 3 && std::strcmp(argv[3], "--self-intersections") == 0;
+  const bool from_preset = argc > 1 && std::strcmp(argv[1], "--preset") == 0;
+  if (from_preset && argc < 5) {
+    std::fprintf(stderr, "usage: decimate_bench --preset NAME RESOLUTION RATIO\n");
+    return 2;
+  }
+  int level = argc > 1 && !from_preset ? std::atoi(argv[1]) : 9;
+  double ratio = from_preset ? std::atof(argv[4]) : (argc > 2 ? std::atof(argv[2]) : 0.1);
+  bool self = !from_preset && argc > 3 && std::strcmp(argv[3], "--self-intersections") == 0;
   auto t0 = std::chrono::steady_clock::now();
-  qjulia::TriMesh mesh = fixtures::noisy_sphere(level);
-  std::printf("built noisy sphere level %d: %zu faces, %zu vertices in %.2f s\n", level,
-              mesh.face_count(), mesh.vertex_count(), seconds_since(t0));
+  qjulia::TriMesh mesh;
+  if (from_preset) {
+    qjulia::Params params = qjulia::preset(argv[2]);
+    params.resolution = std::atoi(argv[3]);
+    mesh = qjulia::run_pipeline(params).mesh;  // sampled, extracted, cleaned
+    std::printf("pipeline %s at %d: %zu faces, %zu vertices in %.2f s\n", argv[2],
+                params.resolution, mesh.face_count(), mesh.vertex_count(), seconds_since(t0));
+  } else {
+    mesh = fixtures::noisy_sphere(level);
+    std::printf("built noisy sphere level %d: %zu faces, %zu vertices in %.2f s\n", level,
+                mesh.face_count(), mesh.vertex_count(), seconds_since(t0));
+  }
   t0 = std::chrono::steady_clock::now();
   qjulia::CleanReport cr;
   mesh = qjulia::clean(mesh, {}, &cr);
@@ -42,14 +64,16 @@ int main(int argc, char** argv) {
   opts.faces = static_cast<long long>(mesh.face_count() * ratio);
   qjulia::DecimateReport rep;
   t0 = std::chrono::steady_clock::now();
+  const double c0 = cpu_seconds();
   qjulia::TriMesh out = qjulia::decimate(mesh, opts, &rep);
   double td = seconds_since(t0);
+  double cpu = cpu_seconds() - c0;
   auto topo = fixtures::check(out);
   std::printf(
-      "decimate: %zu -> %zu faces in %.2f s = %.2f M input faces/s; hausdorff %.5f; "
-      "closed+manifold+oriented %s; peak RSS %ld MB\n",
-      rep.faces_before, rep.faces_after, td, rep.faces_before / td / 1e6, rep.hausdorff,
-      topo.closed_manifold_oriented ? "yes" : "NO", peak_rss_mb());
+      "decimate: %zu -> %zu faces in %.2f s wall (%.2f s CPU) = %.2f M input faces/s; "
+      "hausdorff %.5f; closed+manifold+oriented %s (euler %lld); peak RSS %ld MB\n",
+      rep.faces_before, rep.faces_after, td, cpu, rep.faces_before / td / 1e6, rep.hausdorff,
+      topo.closed_manifold_oriented ? "yes" : "NO", topo.euler, peak_rss_mb());
   if (self) {
     t0 = std::chrono::steady_clock::now();
     std::size_t n = qjulia::count_self_intersections(mesh);

@@ -48,6 +48,20 @@ int link_components(const std::vector<std::pair<uint32_t, uint32_t>>& link) {
   return components;
 }
 
+/// Fast path of a closed manifold vertex: following next -> prev visits every link edge once.
+bool single_cycle(const std::vector<std::pair<uint32_t, uint32_t>>& link) {
+  const std::size_t k = link.size();
+  if (k > 64) return false;
+  uint32_t cur = link[0].second;
+  for (std::size_t steps = 1; steps < k; ++steps) {
+    std::size_t i = 0;
+    while (i < k && link[i].first != cur) ++i;
+    if (i == k || i == 0) return false;
+    cur = link[i].second;
+  }
+  return cur == link[0].first;
+}
+
 }  // namespace
 
 VertexFaces::VertexFaces(const TriMesh& mesh) {
@@ -123,7 +137,7 @@ TopologyCheck check_topology(const TriMesh& mesh, bool allow_boundary) {
         int c = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
         link.emplace_back(t[(c + 1) % 3], t[(c + 2) % 3]);
       }
-      if (link.size() > 1 && link_components(link) > 1) pinched[v] = 1;
+      if (link.size() > 1 && !single_cycle(link) && link_components(link) > 1) pinched[v] = 1;
     }
   });
   for (std::size_t v = 0; v < nv; ++v)
@@ -187,18 +201,37 @@ std::size_t drop_repeated_and_fins(TriMesh& mesh) {
       std::remove_if(tris.begin(), tris.end(),
                      [](const auto& t) { return t[0] == t[1] || t[1] == t[2] || t[0] == t[2]; }),
       tris.end());
-  // Sort faces by their sorted vertex triple to find coincident faces.
-  std::vector<uint32_t> order(tris.size());
-  std::iota(order.begin(), order.end(), 0u);
+  // Sort faces by a hash of their sorted vertex triple to find coincident faces; equal hashes
+  // are compared exactly below.
   auto sorted_key = [&](uint32_t f) {
     auto t = tris[f];
     std::sort(t.begin(), t.end());
     return t;
   };
-  tbb::parallel_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
-    auto ka = sorted_key(a), kb = sorted_key(b);
-    return ka != kb ? ka < kb : a < b;
+  std::vector<std::pair<uint64_t, uint32_t>> hashed(tris.size());
+  tbb::parallel_for(std::size_t(0), tris.size(), [&](std::size_t f) {
+    const auto t = sorted_key(static_cast<uint32_t>(f));
+    uint64_t h = (uint64_t(t[0]) * 0x9E3779B97F4A7C15ULL) ^
+                 (uint64_t(t[1]) * 0xC2B2AE3D27D4EB4FULL) ^
+                 (uint64_t(t[2]) * 0x165667B19E3779F9ULL);
+    hashed[f] = {h, static_cast<uint32_t>(f)};
   });
+  tbb::parallel_sort(hashed.begin(), hashed.end());
+  std::vector<uint32_t> order;  // faces whose hash is shared, grouped by exact triple
+  for (std::size_t i = 0; i < hashed.size();) {
+    std::size_t j = i + 1;
+    while (j < hashed.size() && hashed[j].first == hashed[i].first) ++j;
+    if (j - i > 1) {
+      std::vector<uint32_t> group;
+      for (std::size_t k = i; k < j; ++k) group.push_back(hashed[k].second);
+      std::sort(group.begin(), group.end(), [&](uint32_t x, uint32_t y) {
+        auto kx = sorted_key(x), ky = sorted_key(y);
+        return kx != ky ? kx < ky : x < y;
+      });
+      order.insert(order.end(), group.begin(), group.end());
+    }
+    i = j;
+  }
   auto parity = [&](uint32_t f) {  // orientation relative to the sorted order
     const auto& t = tris[f];
     int inv = (t[0] > t[1]) + (t[0] > t[2]) + (t[1] > t[2]);
