@@ -37,7 +37,7 @@ namespace qjulia {
 
 namespace {
 
-constexpr std::size_t kChunkFaces = 300'000;  // faces per chunk; below 2x this, one pass
+constexpr std::size_t kChunkFaces = 150'000;  // faces per chunk; below 2x this, one pass
 constexpr int kMaxAttempts = 12;
 
 bool debug_enabled() { return std::getenv("QJULIA_DEBUG_DECIMATE") != nullptr; }
@@ -262,8 +262,8 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
     if (use_chunks) {
       const std::size_t chunks =
           std::max<std::size_t>(2 * threads, (mesh.face_count() + kChunkFaces - 1) / kChunkFaces);
-      // Stage 1 stops at twice the budget so that stage 2 has room to dissolve the seams.
-      const double ratio = opts.faces ? std::min(1.0, 2.0 * budget / mesh.face_count()) : 0.0;
+      // Stage 1 stops at 1.5 times the budget so that stage 2 has room to dissolve the seams.
+      const double ratio = opts.faces ? std::min(1.0, 1.5 * budget / mesh.face_count()) : 0.0;
       work.triangles = simplify_chunks(mesh, chunks, ratio, 0.5 * abs_error);
       if (debug)
         std::fprintf(stderr, "decimate: %zu chunks -> %zu faces, %.2f s\n", chunks,

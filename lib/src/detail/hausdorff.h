@@ -9,7 +9,7 @@ namespace qjulia::detail {
 
 /// Sampling budget of hausdorff_distance().
 struct HausdorffOptions {
-  std::size_t max_samples = 1'000'000;  ///< per direction; vertices are strided beyond this
+  std::size_t max_samples = 500'000;  ///< per direction; vertices are strided beyond this
 };
 
 /// One-sided distances, model units.
