@@ -1,7 +1,8 @@
 // Decimation benchmark: a bumpy icosphere (level 9: 5.24M faces) decimated to 10%; prints input
 // faces per second and the peak RSS.
 // Usage: decimate_bench [LEVEL] [RATIO] [--self-intersections]
-//        decimate_bench --preset NAME RESOLUTION RATIO   (a real fractal mesh from the pipeline)
+//        decimate_bench --preset NAME RESOLUTION RATIO [SIZE_MM MIN_THICKNESS_MM]
+//          (a real fractal mesh from the pipeline; optionally then scaled and thickened)
 #include <sys/resource.h>
 
 #include <chrono>
@@ -15,6 +16,7 @@
 #include "qjulia/decimate.h"
 #include "qjulia/params.h"
 #include "qjulia/pipeline.h"
+#include "qjulia/print.h"
 
 namespace {
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -76,9 +78,27 @@ int main(int argc, char** argv) {
       topo.closed_manifold_oriented ? "yes" : "NO", topo.euler, peak_rss_mb());
   if (self) {
     t0 = std::chrono::steady_clock::now();
+    const double c1 = cpu_seconds();
     std::size_t n = qjulia::count_self_intersections(mesh);
-    std::printf("count_self_intersections on %zu faces: %zu pairs in %.2f s\n", mesh.face_count(),
-                n, seconds_since(t0));
+    std::printf("count_self_intersections on %zu faces: %zu pairs in %.2f s wall (%.2f s CPU)\n",
+                mesh.face_count(), n, seconds_since(t0), cpu_seconds() - c1);
+  }
+  if (from_preset && argc > 6) {
+    const double size = std::atof(argv[5]), thickness = std::atof(argv[6]);
+    qjulia::scale_to_longest_side(out, size);
+    const double before = fixtures::volume(out);
+    t0 = std::chrono::steady_clock::now();
+    const double c2 = cpu_seconds();
+    qjulia::ThickenOptions topts;
+    topts.min_thickness = thickness;
+    qjulia::TriMesh thick = qjulia::thicken(out, topts);
+    auto tt = fixtures::check(thick);
+    std::printf(
+        "thicken to %.2f mm at %.0f mm: %zu -> %zu faces in %.2f s wall (%.2f s CPU); volume "
+        "%.1f -> %.1f mm^3; closed+manifold+oriented %s; peak RSS %ld MB\n",
+        thickness, size, out.face_count(), thick.face_count(), seconds_since(t0),
+        cpu_seconds() - c2, before, fixtures::volume(thick),
+        tt.closed_manifold_oriented ? "yes" : "NO", peak_rss_mb());
   }
   return topo.closed_manifold_oriented ? 0 : 1;
 }

@@ -41,8 +41,8 @@ struct CleanReport {
 TriMesh clean(const TriMesh& mesh, const CleanOptions& opts = {}, CleanReport* report = nullptr);
 
 /// Counts pairs of faces that intersect other than in their shared vertices or edge
-/// (CGAL::Polygon_mesh_processing::self_intersections, multi-threaded). About 1 s per 1M faces
-/// on 2 cores, see docs/clean.md.
+/// (CGAL::Polygon_mesh_processing::self_intersections, multi-threaded). Faces that a halfedge
+/// mesh cannot hold (non-manifold) are skipped. Slow: ~5 CPU-seconds for 1.3M faces.
 std::size_t count_self_intersections(const TriMesh& mesh);
 
 }  // namespace qjulia
