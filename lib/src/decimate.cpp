@@ -249,7 +249,9 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
   auto t0 = std::chrono::steady_clock::now();
 
   // meshoptimizer's error is the quadric (distance to planes) error, not the Hausdorff distance:
-  // when the measured distance exceeds the bound, the bound is tightened and the work redone.
+  // close to it on smooth surfaces, 1.6-1.8x smaller on bumpy ones. The first round uses the
+  // bound (half per stage); when the measured distance exceeds it, the bound is scaled by
+  // 0.85 * max_error / measured and the work redone.
   double abs_error = opts.max_error ? *opts.max_error : 1e30;
   TriMesh out;
   bool use_chunks = mesh.face_count() >= 2 * kChunkFaces;
@@ -298,7 +300,7 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
     if (debug)
       std::fprintf(stderr, "decimate: hausdorff %g, %.2f s\n", rep.hausdorff, seconds_since(t0));
     if (!opts.max_error || rep.hausdorff <= *opts.max_error) break;
-    abs_error *= 0.8 * (*opts.max_error / rep.hausdorff);
+    abs_error *= 0.85 * (*opts.max_error / rep.hausdorff);
   }
   // Input normals describe the fine surface; the caller recomputes them for the coarse one.
   out.normals.clear();

@@ -1,6 +1,6 @@
 // Decimation benchmark: a bumpy icosphere (level 9: 5.24M faces) decimated to 10%; prints input
 // faces per second and the peak RSS.
-// Usage: decimate_bench [LEVEL] [RATIO] [--self-intersections]
+// Usage: decimate_bench [LEVEL] [RATIO] [--self-intersections]   (RATIO < 0: max_error = -RATIO)
 //        decimate_bench --preset NAME RESOLUTION RATIO [SIZE_MM MIN_THICKNESS_MM]
 //          (a real fractal mesh from the pipeline; optionally then scaled and thickened)
 #include <sys/resource.h>
@@ -63,7 +63,10 @@ int main(int argc, char** argv) {
   std::printf("clean: %.2f s (%.2f M faces/s), %zu components\n", tc, mesh.face_count() / tc / 1e6,
               cr.components_after);
   qjulia::DecimateOptions opts;
-  opts.faces = static_cast<long long>(mesh.face_count() * ratio);
+  if (ratio > 0)
+    opts.faces = static_cast<long long>(mesh.face_count() * ratio);
+  else
+    opts.max_error = -ratio;  // a negative RATIO is an error bound instead of a face ratio
   qjulia::DecimateReport rep;
   t0 = std::chrono::steady_clock::now();
   const double c0 = cpu_seconds();
