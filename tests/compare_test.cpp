@@ -1,0 +1,195 @@
+// compare: distances between surfaces with known answers (identical, refined, shifted meshes),
+// and the `qjulia compare` / `qjulia experiment` commands end to end.
+#include "qjulia/compare.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <utility>
+
+#include "qjulia/error.h"
+
+namespace {
+
+using qjulia::TriMesh;
+
+// An icosphere of radius 1: the icosahedron subdivided `level` times, projected on the sphere.
+TriMesh icosphere(int level) {
+  const float t = (1.0f + std::sqrt(5.0f)) / 2;
+  TriMesh m;
+  m.positions = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
+                 {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
+  m.triangles = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
+                 {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                 {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
+                 {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
+  auto normalize = [](std::array<float, 3>& p) {
+    const float n = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+    for (auto& x : p) x /= n;
+  };
+  for (auto& p : m.positions) normalize(p);
+  for (int l = 0; l < level; ++l) {
+    std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
+    auto midpoint = [&](uint32_t a, uint32_t b) {
+      const auto key = std::minmax(a, b);
+      auto it = mid.find(key);
+      if (it != mid.end()) return it->second;
+      std::array<float, 3> p;
+      for (int k = 0; k < 3; ++k) p[k] = (m.positions[a][k] + m.positions[b][k]) / 2;
+      normalize(p);
+      m.positions.push_back(p);
+      const uint32_t index = static_cast<uint32_t>(m.positions.size() - 1);
+      mid.emplace(key, index);
+      return index;
+    };
+    std::vector<std::array<uint32_t, 3>> next;
+    for (const auto& f : m.triangles) {
+      const uint32_t ab = midpoint(f[0], f[1]), bc = midpoint(f[1], f[2]),
+                     ca = midpoint(f[2], f[0]);
+      next.push_back({f[0], ab, ca});
+      next.push_back({f[1], bc, ab});
+      next.push_back({f[2], ca, bc});
+      next.push_back({ab, bc, ca});
+    }
+    m.triangles = std::move(next);
+  }
+  return m;
+}
+
+// The unit cube [0, 1]^3, outward, 12 triangles.
+TriMesh cube() {
+  TriMesh m;
+  for (int i = 0; i < 8; ++i)
+    m.positions.push_back(
+        {static_cast<float>(i & 1), static_cast<float>((i >> 1) & 1), static_cast<float>(i >> 2)});
+  m.triangles = {{0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}, {0, 1, 5}, {0, 5, 4},
+                 {2, 6, 7}, {2, 7, 3}, {0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}};
+  return m;
+}
+
+TriMesh shifted(TriMesh m, float dx, float dy, float dz) {
+  for (auto& p : m.positions) {
+    p[0] += dx;
+    p[1] += dy;
+    p[2] += dz;
+  }
+  return m;
+}
+
+// The longest edge of a mesh.
+double max_edge(const TriMesh& m) {
+  double e = 0;
+  for (const auto& f : m.triangles)
+    for (int k = 0; k < 3; ++k) {
+      const auto &a = m.positions[f[k]], &b = m.positions[f[(k + 1) % 3]];
+      e = std::max(e, std::hypot(double(a[0] - b[0]), double(a[1] - b[1]), double(a[2] - b[2])));
+    }
+  return e;
+}
+
+qjulia::CompareOptions small_options() {
+  qjulia::CompareOptions o;
+  o.samples = 200000;
+  return o;
+}
+
+}  // namespace
+
+TEST(Compare, IdenticalMeshesCompareAtDistanceZero) {
+  const TriMesh sphere = icosphere(3);
+  const auto r = qjulia::compare(sphere, sphere, small_options());
+  EXPECT_LT(r.hausdorff, 1e-6);
+  EXPECT_LT(r.a_to_b.mean, 1e-7);
+  EXPECT_LT(r.b_to_a.rms, 1e-7);
+  EXPECT_EQ(r.a_to_b.samples, sphere.vertex_count() + small_options().samples);
+  ASSERT_EQ(r.a_vertex_distance.size(), sphere.vertex_count());
+  for (float d : r.a_vertex_distance) EXPECT_EQ(d, 0.0f);
+}
+
+TEST(Compare, UnitSphereAtTwoResolutionsComparesWithinOneEdgeOfTheCoarser) {
+  const TriMesh coarse = icosphere(2), fine = icosphere(5);
+  const double edge = max_edge(coarse);
+  const auto r = qjulia::compare(coarse, fine, small_options());
+  EXPECT_GT(r.hausdorff, 0.0);
+  EXPECT_LT(r.hausdorff, edge);
+  // Both inscribed in the unit sphere: the coarse one lies inside the fine one, farthest at
+  // face centres, where it is at most the sagitta of its edges away.
+  EXPECT_LT(r.hausdorff, edge * edge / 2);
+  EXPECT_LE(r.a_to_b.mean, r.a_to_b.rms);
+  EXPECT_LE(r.a_to_b.rms, r.a_to_b.max);
+  EXPECT_DOUBLE_EQ(r.hausdorff, std::max(r.a_to_b.max, r.b_to_a.max));
+}
+
+TEST(Compare, ShiftedCubeComparesExactlyAtTheShift) {
+  // The corner (1,1,1) + s moves farthest from the unit cube: the distance is |s|, exactly.
+  const TriMesh a = cube();
+  const float s = 0.1f;
+  const auto r = qjulia::compare(a, shifted(a, s, s, s), small_options());
+  EXPECT_NEAR(r.hausdorff, std::sqrt(3.0) * s, 1e-6);
+  EXPECT_NEAR(r.a_to_b.max, std::sqrt(3.0) * s, 1e-6);
+  EXPECT_NEAR(r.b_to_a.max, std::sqrt(3.0) * s, 1e-6);
+}
+
+TEST(Compare, ShiftedSphereComparesAtTheShiftWithinSamplingTolerance) {
+  // For the exact sphere the distance to a copy shifted by s is |s|. The icosphere is within
+  // its sagitta e of the sphere, and the samples are about `gap` apart.
+  const TriMesh a = icosphere(4);
+  const double edge = max_edge(a), sagitta = edge * edge / 2, gap = edge / 4;
+  const float s = 0.05f;
+  const auto r = qjulia::compare(a, shifted(a, s, 0, 0), small_options());
+  EXPECT_LE(r.hausdorff, s + 2 * sagitta);
+  EXPECT_GE(r.hausdorff, s - 2 * sagitta - gap);
+  EXPECT_LT(r.a_to_b.mean, s);  // most of the surface moves less than the shift
+  EXPECT_GT(r.a_to_b.mean, 0.25 * s);
+}
+
+TEST(Compare, TheSameInputGivesTheSameResult) {
+  const TriMesh a = icosphere(3), b = shifted(icosphere(2), 0.02f, -0.01f, 0.03f);
+  const auto r1 = qjulia::compare(a, b, small_options());
+  const auto r2 = qjulia::compare(a, b, small_options());
+  EXPECT_EQ(r1.hausdorff, r2.hausdorff);
+  EXPECT_EQ(r1.a_to_b.mean, r2.a_to_b.mean);
+  EXPECT_EQ(r1.b_to_a.rms, r2.b_to_a.rms);
+  EXPECT_EQ(r1.a_vertex_distance, r2.a_vertex_distance);
+}
+
+TEST(Compare, MeasuresBothSurfaces) {
+  const TriMesh a = cube(), b = icosphere(3);
+  const auto r = qjulia::compare(a, b, small_options());
+  EXPECT_EQ(r.a.faces, 12u);
+  EXPECT_EQ(r.a.vertices, 8u);
+  EXPECT_NEAR(r.a.volume, 1.0, 1e-6);
+  EXPECT_NEAR(r.a.area, 6.0, 1e-6);
+  EXPECT_EQ(r.b.faces, b.face_count());
+  EXPECT_EQ(qjulia::genus_summary(r.a), "genus 0 x1");
+}
+
+TEST(Compare, AMeshWithoutFacesIsInvalidInput) {
+  const TriMesh empty;
+  EXPECT_THROW(qjulia::compare(empty, cube()), qjulia::InvalidInput);
+  EXPECT_THROW(qjulia::compare(cube(), empty), qjulia::InvalidInput);
+  TriMesh broken = cube();
+  broken.triangles[3][1] = 99;
+  EXPECT_THROW(qjulia::compare(broken, cube()), qjulia::InvalidInput);
+}
+
+TEST(Compare, ProgressCanCancel) {
+  auto o = small_options();
+  o.progress = [](double f) { return f < 0.5; };
+  EXPECT_THROW(qjulia::compare(icosphere(4), icosphere(3), o), qjulia::Cancelled);
+}
+
+TEST(Compare, DistanceColorsRampFromBlueToRed) {
+  const auto c = qjulia::distance_colors({0.0f, 0.5f, 1.0f, 2.0f, -1.0f}, 0.0, 1.0);
+  ASSERT_EQ(c.size(), 5u);
+  EXPECT_GT(c[0][2], c[0][0]);  // low: blue
+  EXPECT_GT(c[2][0], c[2][2]);  // high: red
+  EXPECT_EQ(c[3], c[2]);        // clamped
+  EXPECT_EQ(c[4], c[0]);
+  for (const auto& rgb : c)
+    for (float x : rgb) {
+      EXPECT_GE(x, 0.0f);
+      EXPECT_LE(x, 1.0f);
+    }
+}
