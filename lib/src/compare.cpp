@@ -278,6 +278,13 @@ std::string genus_summary(const MeshMeasure& m) {
   return out.str();
 }
 
+std::string compare_legend_json(double lo, double hi, const std::string& name_a,
+                                const std::string& name_b) {
+  const nlohmann::json j = {
+      {"compare", {{"legend_min", lo}, {"legend_max", hi}, {"a", name_a}, {"b", name_b}}}};
+  return j.dump(2) + "\n";
+}
+
 std::string compare_to_json(const CompareResult& r, const std::string& name_a,
                             const std::string& name_b) {
   nlohmann::json j = {{"a_name", name_a},

@@ -44,6 +44,11 @@ CompareResult compare(const TriMesh& a, const TriMesh& b, const CompareOptions& 
 std::vector<std::array<float, 3>> distance_colors(const std::vector<float>& values, double lo,
                                                   double hi);
 
+/// The metadata of a mesh coloured by distance_colors(), for ExportOptions::params_json:
+/// {"compare": {"legend_min": lo, "legend_max": hi, "a": name_a, "b": name_b}}.
+std::string compare_legend_json(double lo, double hi, const std::string& name_a,
+                                const std::string& name_b);
+
 /// The genus of the closed components in one line, e.g. "genus 0 x3, genus 2 x1; 1 open"
 /// ("none" without components).
 std::string genus_summary(const MeshMeasure& m);
