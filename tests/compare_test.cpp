@@ -5,10 +5,17 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <map>
+#include <sstream>
+#include <string>
 #include <utility>
 
 #include "qjulia/error.h"
+#include "qjulia/params.h"
+#include "qjulia/pipeline.h"
 
 namespace {
 
@@ -192,4 +199,99 @@ TEST(Compare, DistanceColorsRampFromBlueToRed) {
       EXPECT_GE(x, 0.0f);
       EXPECT_LE(x, 1.0f);
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The methods compared: the escape method fails on Newton's cubic (DESIGN.md; the paper's
+// table 1). Its solid is the bailout ball with holes, the cut-off solid a thin shell around J.
+
+TEST(Compare, EscapeMethodOnNewtonsCubicIsFarFromTheCutOffSurface) {
+  qjulia::Params cut = qjulia::preset("newton-cubic"), esc = qjulia::preset("newton-escape");
+  cut.resolution = esc.resolution = 32;
+  const TriMesh a = qjulia::run_pipeline(cut).mesh, b = qjulia::run_pipeline(esc).mesh;
+  ASSERT_GT(a.face_count(), 0u);
+  ASSERT_GT(b.face_count(), 0u);
+  const auto r = qjulia::compare(a, b, small_options());
+  // The escape solid fills most of the ball of radius 2 (volume 33.5); the shell is thin.
+  EXPECT_GT(r.b.volume, 4 * r.a.volume);
+  EXPECT_GT(r.b.volume, 0.5 * 4.0 / 3 * M_PI * 8);
+  // Its outer surface, the bailout sphere, passes through the basins far from J: many voxels.
+  const double voxel = 4.0 / 32;
+  EXPECT_GT(r.hausdorff, 4 * voxel);
+  EXPECT_GT(r.b_to_a.mean, voxel);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The command line, run as a separate process.
+
+namespace {
+
+struct CliRun {
+  int exit_code;
+  std::string output;  // stdout and stderr
+};
+
+CliRun run_cli(const std::string& args) {
+  const std::string cmd = std::string(QJULIA_CLI) + " " + args + " 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  CliRun r{-1, ""};
+  if (!pipe) return r;
+  char buf[4096];
+  std::size_t n;
+  while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) r.output.append(buf, n);
+  const int status = pclose(pipe);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+std::filesystem::path scratch_dir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / ("qjulia_compare_test_" + name);
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+}  // namespace
+
+TEST(CompareCli, GarbageMeshFileExitsTwoNamingTheFileAndTheReason) {
+  const auto dir = scratch_dir("garbage");
+  const std::string garbage = (dir / "garbage.obj").string();
+  std::ofstream(garbage) << "this is not a mesh\n\x01\x02\x03";
+  const auto r = run_cli("compare " + garbage + " " + garbage);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  const auto at = r.output.find(garbage + ":");
+  ASSERT_NE(at, std::string::npos) << r.output;
+  EXPECT_GT(r.output.size(), at + garbage.size() + 3) << "no reason given: " << r.output;
+}
+
+TEST(CompareCli, MissingMeshFileExitsTwoNamingTheFile) {
+  const auto dir = scratch_dir("missing");
+  const std::string missing = (dir / "nowhere.ply").string();
+  const auto r = run_cli("compare " + missing + " " + missing);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find(missing + ": cannot open"), std::string::npos) << r.output;
+}
+
+TEST(CompareCli, NeedsExactlyTwoSurfaces) {
+  const auto r = run_cli("compare --preset newton-cubic");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("needs two surfaces"), std::string::npos) << r.output;
+  EXPECT_EQ(run_cli("compare --preset newton-cubic --preset no-such-preset").exit_code, 2);
+}
+
+TEST(CompareCli, TwoPresetsGiveATableAndJson) {
+  const auto dir = scratch_dir("presets");
+  const std::string json = (dir / "c.json").string();
+  const auto r = run_cli(
+      "compare --preset newton-cubic --preset newton-escape --resolution 24 --samples 20000 "
+      "--quiet --json " +
+      json);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("preset newton-cubic"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("Hausdorff distance"), std::string::npos) << r.output;
+  std::ifstream in(json);
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_NE(text.str().find("\"hausdorff\""), std::string::npos);
+  EXPECT_NE(text.str().find("\"b_name\": \"preset newton-escape\""), std::string::npos);
 }

@@ -111,24 +111,12 @@ std::vector<float> distances(const std::vector<Point>& points, const detail::Tri
     const std::size_t end = std::min(points.size(), begin + kBlock);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(begin, end, 256),
                       [&](const tbb::blocked_range<std::size_t>& r) {
-                        // Consecutive samples are close: the last distance plus the step
-                        // between them bounds the next one, which prunes the search early.
-                        float prev = -1;
-                        Point last{};
+                        // Consecutive samples are close: the previous hit is a good start.
+                        uint32_t hint = UINT32_MAX;
                         for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                          float bound = std::numeric_limits<float>::infinity();
-                          if (prev >= 0) {
-                            const float dx = points[i][0] - last[0], dy = points[i][1] - last[1],
-                                        dz = points[i][2] - last[2];
-                            const float b = prev + std::sqrt(dx * dx + dy * dy + dz * dz);
-                            bound = b * b * 1.0001f + 1e-30f;
-                          }
-                          auto hit = bvh.closest(points[i], bound);
-                          if (hit.face == UINT32_MAX)  // rounding defeated the bound
-                            hit = bvh.closest(points[i], std::numeric_limits<float>::infinity());
+                          const auto hit = bvh.closest(points[i], hint);
                           d[i] = std::sqrt(hit.distance_sq);
-                          prev = d[i];
-                          last = points[i];
+                          hint = hit.slot;
                         }
                       });
     step(static_cast<double>(end) / points.size());
@@ -230,8 +218,7 @@ CompareResult compare(const TriMesh& a, const TriMesh& b, const CompareOptions& 
     result.a_vertex_distance[sa.vertex_of[i]] = da[i];
   for (uint32_t v = 0; v < a.positions.size(); ++v) {
     if (std::binary_search(sa.vertex_of.begin(), sa.vertex_of.end(), v)) continue;
-    result.a_vertex_distance[v] = std::sqrt(
-        bvh_b->closest(a.positions[v], std::numeric_limits<float>::infinity()).distance_sq);
+    result.a_vertex_distance[v] = std::sqrt(bvh_b->closest(a.positions[v]).distance_sq);
   }
   if (opts.progress && !opts.progress(1.0)) throw Cancelled();
   return result;
@@ -258,7 +245,7 @@ std::vector<std::array<float, 3>> distance_colors(const std::vector<float>& valu
   return out;
 }
 
-std::string genus_summary(const MeshMeasure& m) {
+std::string genus_summary(const MeshMeasure& m, std::size_t max_groups) {
   if (m.components.empty()) return "none";
   std::map<long long, std::size_t> genus;
   std::size_t open = 0;
@@ -268,12 +255,23 @@ std::string genus_summary(const MeshMeasure& m) {
     else
       ++open;
   }
+  std::vector<std::pair<long long, std::size_t>> groups(genus.begin(), genus.end());
+  std::size_t more = 0;
+  if (max_groups > 0 && groups.size() > max_groups) {
+    // The most frequent genus values, then listed by genus.
+    std::stable_sort(groups.begin(), groups.end(),
+                     [](const auto& x, const auto& y) { return x.second > y.second; });
+    more = groups.size() - max_groups;
+    groups.resize(max_groups);
+    std::sort(groups.begin(), groups.end());
+  }
   std::ostringstream out;
   bool first = true;
-  for (const auto& [g, n] : genus) {
+  for (const auto& [g, n] : groups) {
     out << (first ? "" : ", ") << "genus " << g << " x" << n;
     first = false;
   }
+  if (more) out << ", +" << more << " more";
   if (open) out << (first ? "" : "; ") << open << " open";
   return out.str();
 }

@@ -2,6 +2,7 @@
 // torus and a bumpy torus of different tessellation), the figure of the issue ("1M faces
 // against 1M faces in under 10 s").
 // Usage: compare_bench [--faces N] [--samples S] [--threads T]
+#include <sys/resource.h>
 #include <tbb/global_control.h>
 
 #include <chrono>
@@ -38,6 +39,13 @@ qjulia::TriMesh torus(int n, int m, double bump) {
   return t;
 }
 
+// CPU seconds of this process (all threads): the work, whatever else loads the machine.
+double cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return u.ru_utime.tv_sec + u.ru_stime.tv_sec + 1e-6 * (u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -70,22 +78,29 @@ int main(int argc, char** argv) {
   const qjulia::TriMesh a = torus(an, static_cast<int>(faces / 2 / an), 0.0);
   const qjulia::TriMesh b = torus(bn, bn, 0.02);
 
-  double setup = 0;
+  double setup = 0, setup_cpu = 0;
+  const double cpu0 = cpu_seconds();
   const auto t0 = std::chrono::steady_clock::now();
   opts.progress = [&](double f) {
-    if (setup == 0 && f > 0) setup = seconds_since(t0);
+    if (setup == 0 && f > 0) {
+      setup = seconds_since(t0);
+      setup_cpu = cpu_seconds() - cpu0;
+    }
     return true;
   };
   const auto r = qjulia::compare(a, b, opts);
   const double total = seconds_since(t0);
+  const double cpu = cpu_seconds() - cpu0;
 
   std::printf("compare_bench: A %zu faces, B %zu faces, %zu + %zu samples, %u hardware threads%s\n",
               a.face_count(), b.face_count(), r.a_to_b.samples, r.b_to_a.samples,
               std::thread::hardware_concurrency(),
               threads > 0 ? (", limited to " + std::to_string(threads)).c_str() : "");
-  std::printf("  setup (measure, BVH, samples): %.2f s\n", setup);
-  std::printf("  distance queries:              %.2f s\n", total - setup);
-  std::printf("  total:                         %.2f s\n", total);
+  std::printf("  setup (measure, BVH, samples): %.2f s wall, %.2f s CPU\n", setup, setup_cpu);
+  std::printf("  distance queries:              %.2f s wall, %.2f s CPU\n", total - setup,
+              cpu - setup_cpu);
+  std::printf("  total:                         %.2f s wall, %.2f s CPU (all threads)\n", total,
+              cpu);
   std::printf("  hausdorff %.6f (a->b max %.6f mean %.6f, b->a max %.6f mean %.6f); bump 0.02\n",
               r.hausdorff, r.a_to_b.max, r.a_to_b.mean, r.b_to_a.max, r.b_to_a.mean);
   return 0;

@@ -1,13 +1,16 @@
 // qjulia compare A B: measures of two surfaces (mesh files or parameter sets) and the two-sided
 // Hausdorff distance between them.
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "cli.h"
 #include "commands.h"
+#include "files.h"
 #include "progress_bar.h"
 #include "qjulia/compare.h"
 #include "qjulia/error.h"
@@ -58,9 +61,12 @@ const OptionSpec* find_spec(const std::vector<OptionSpec>& specs, const std::str
 // order is taken from the tokens).
 std::vector<Source> sources_in_order(const Tokens& tokens, const std::vector<OptionSpec>& specs) {
   std::vector<Source> out;
+  bool only_positional = false;
   for (std::size_t i = 0; i < tokens.size(); ++i) {
     const std::string& t = tokens[i];
-    if (t.rfind("--", 0) == 0 && t.size() > 2) {
+    if (t == "--" && !only_positional) {
+      only_positional = true;
+    } else if (!only_positional && t.rfind("--", 0) == 0 && t.size() > 2) {
       const std::size_t eq = t.find('=');
       const std::string name = t.substr(2, eq == std::string::npos ? std::string::npos : eq - 2);
       const OptionSpec* spec = find_spec(specs, name);
@@ -81,10 +87,6 @@ std::vector<Source> sources_in_order(const Tokens& tokens, const std::vector<Opt
 
 // A mesh file, with any failure to read it reported as bad input naming the file.
 TriMesh load_mesh(const std::string& path) {
-  {
-    std::ifstream probe(path, std::ios::binary);
-    if (!probe) throw InvalidInput(path + ": cannot open the file (missing or unreadable)");
-  }
   try {
     return read_mesh(path);
   } catch (const InvalidInput&) {
@@ -94,18 +96,22 @@ TriMesh load_mesh(const std::string& path) {
   }
 }
 
-TriMesh make_mesh(const Source& s, const ParsedArgs& args, bool quiet) {
-  if (s.kind == Source::kMesh) return load_mesh(s.value);
-  // The shared flags apply; the other surface's --preset / --params do not.
+// The parameters of a parameter source: the shared flags apply, the other surface's --preset /
+// --params do not. Checked before any meshing starts, so a typo fails at once.
+Params params_of(const Source& s, const ParsedArgs& args) {
   ParsedArgs own;
   for (const auto& [name, value] : args.options)
     if (name != "preset" && name != "params") own.options.emplace_back(name, value);
   if (s.kind == Source::kPreset) own.options.emplace_back("preset", s.value);
-  const Params params = params_from_args(own, s.kind == Source::kParamsFile ? s.value : "");
+  return params_from_args(own, s.kind == Source::kParamsFile ? s.value : "");
+}
+
+TriMesh make_mesh(const Source& s, const std::optional<Params>& params, bool quiet) {
+  if (!params) return load_mesh(s.value);
   ProgressBar bar(quiet);
   PipelineOptions opts;
   opts.progress = bar.callback();
-  PipelineResult r = run_pipeline(params, opts);
+  PipelineResult r = run_pipeline(*params, opts);
   bar.finish();
   return std::move(r.mesh);
 }
@@ -116,23 +122,9 @@ std::string fmt(double x) {
   return buf;
 }
 
-void write_text_file(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary);
-    if (!out) throw InvalidInput(path + ": cannot write the file");
-    out << text;
-    if (!out.flush()) throw std::runtime_error(path + ": write failed");
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error(path + ": cannot rename the temporary file");
-  }
-}
-
 void print_table(const CompareResult& r, const std::string& na, const std::string& nb) {
   auto row = [](const std::string& name, const std::string& a, const std::string& b) {
-    std::printf("  %-20s %-28s %-28s\n", name.c_str(), a.c_str(), b.c_str());
+    std::printf("  %-20s %-36s %-36s\n", name.c_str(), a.c_str(), b.c_str());
   };
   auto bbox = [](const std::array<double, 3>& v) {
     return fmt(v[0]) + ", " + fmt(v[1]) + ", " + fmt(v[2]);
@@ -145,7 +137,7 @@ void print_table(const CompareResult& r, const std::string& na, const std::strin
   row("area", fmt(r.a.area), fmt(r.b.area));
   row("volume", fmt(r.a.volume), fmt(r.b.volume));
   row("components", n(r.a.components.size()), n(r.b.components.size()));
-  row("closed components", genus_summary(r.a), genus_summary(r.b));
+  row("genus per component", genus_summary(r.a, 3), genus_summary(r.b, 3));
   row("euler (whole mesh)", std::to_string(r.a.euler), std::to_string(r.b.euler));
   row("boundary edges", n(r.a.boundary_edges), n(r.b.boundary_edges));
   row("non-manifold edges", n(r.a.nonmanifold_edges), n(r.b.nonmanifold_edges));
@@ -198,8 +190,16 @@ int cmd_compare(const Tokens& tokens) {
   const std::string colored_path = args.get("colored").value_or("");
   if (!colored_path.empty()) format_from_path(colored_path);  // a bad extension fails now
 
-  const TriMesh a = make_mesh(sources[0], args, quiet);
-  const TriMesh b = make_mesh(sources[1], args, quiet);
+  std::array<std::optional<Params>, 2> params;
+  for (int i = 0; i < 2; ++i) {
+    if (sources[i].kind != Source::kMesh) {
+      params[i] = params_of(sources[i], args);
+    } else if (!std::ifstream(sources[i].value, std::ios::binary)) {
+      throw InvalidInput(sources[i].value + ": cannot open the file (missing or unreadable)");
+    }
+  }
+  const TriMesh a = make_mesh(sources[0], params[0], quiet);
+  const TriMesh b = make_mesh(sources[1], params[1], quiet);
   if (a.triangles.empty()) throw InvalidInput(sources[0].label() + ": the surface is empty");
   if (b.triangles.empty()) throw InvalidInput(sources[1].label() + ": the surface is empty");
 
@@ -213,7 +213,7 @@ int cmd_compare(const Tokens& tokens) {
 
   print_table(r, sources[0].label(), sources[1].label());
   if (!json_path.empty())
-    write_text_file(json_path, compare_to_json(r, sources[0].label(), sources[1].label()));
+    write_file_atomic(json_path, compare_to_json(r, sources[0].label(), sources[1].label()));
   if (!colored_path.empty()) {
     TriMesh colored = a;
     const double hi = r.a_to_b.max > 0 ? r.a_to_b.max : 1.0;

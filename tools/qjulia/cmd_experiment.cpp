@@ -16,6 +16,7 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "files.h"
 #include "qjulia/compare.h"
 #include "qjulia/error.h"
 #include "qjulia/pipeline.h"
@@ -52,20 +53,6 @@ std::string fmt(double x, const char* f = "%.4g") {
   char buf[64];
   std::snprintf(buf, sizeof buf, f, x);
   return buf;
-}
-
-void write_text_file(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary);
-    if (!out) throw InvalidInput(path + ": cannot write the file");
-    out << text;
-    if (!out.flush()) throw std::runtime_error(path + ": write failed");
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw std::runtime_error(path + ": cannot rename the temporary file");
-  }
 }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -352,8 +339,8 @@ int run_table1(const Options& o) {
   }
   md << "\n" << sheet_note;
 
-  write_text_file(o.out + "/table1.csv", csv.str());
-  write_text_file(o.out + "/table1.md", md.str());
+  write_file_atomic(o.out + "/table1.csv", csv.str());
+  write_file_atomic(o.out + "/table1.md", md.str());
   std::fputs(md.str().c_str(), stdout);
   std::printf("\nwrote %s/table1.md, %s/table1.csv%s\n", o.out.c_str(), o.out.c_str(),
               sheet_note.rfind("Contact sheet:", 0) == 0 ? (", " + png).c_str() : "");
@@ -536,8 +523,8 @@ int run_cardioid(const Options& o) {
     std::fprintf(stderr, "cardioid: plot skipped (%s)\n", e.what());
   }
   md << plot_note;
-  write_text_file(o.out + "/cardioid.csv", csv.str());
-  write_text_file(o.out + "/cardioid.md", md.str());
+  write_file_atomic(o.out + "/cardioid.csv", csv.str());
+  write_file_atomic(o.out + "/cardioid.md", md.str());
   std::fputs(md.str().c_str(), stdout);
   std::printf("\nwrote %s/cardioid.md, %s/cardioid.csv%s\n", o.out.c_str(), o.out.c_str(),
               plot_note.rfind("\nPlot:", 0) == 0 ? (", " + png).c_str() : "");

@@ -144,9 +144,13 @@ uint32_t TriangleBvh::build(std::vector<uint32_t>& order,
   return index;
 }
 
-ClosestHit TriangleBvh::closest(const std::array<float, 3>& point, float bound_sq) const {
+ClosestHit TriangleBvh::closest(const std::array<float, 3>& point, uint32_t hint) const {
   const float p[3] = {point[0], point[1], point[2]};
-  ClosestHit best{bound_sq, UINT32_MAX};
+  ClosestHit best{std::numeric_limits<float>::infinity(), UINT32_MAX, UINT32_MAX};
+  if (hint < tri_.size()) {
+    const Tri& t = tri_[hint];
+    best = {point_triangle_distance_sq(p, t.a, t.ab, t.ac), t.face, hint};
+  }
   struct Entry {
     uint32_t node;
     float d;
@@ -182,7 +186,7 @@ ClosestHit TriangleBvh::closest(const std::array<float, 3>& point, float bound_s
     for (uint32_t i = node->first; i < node->first + node->count; ++i) {
       const Tri& t = tri_[i];
       const float d = point_triangle_distance_sq(p, t.a, t.ab, t.ac);
-      if (d < best.distance_sq) best = {d, t.face};
+      if (d < best.distance_sq) best = {d, t.face, i};
     }
   }
   return best;

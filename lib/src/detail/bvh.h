@@ -11,13 +11,14 @@ namespace qjulia::detail {
 struct ClosestHit {
   float distance_sq = 0;  ///< squared distance, model units^2
   uint32_t face = 0;      ///< the triangle that holds the closest point
+  uint32_t slot = 0;      ///< its place in the tree (a hint for the next query)
 };
 
 /// A binary BVH (axis-aligned boxes, up to kLeafSize triangles per leaf) built by splitting at
 /// the median centroid along the longest axis. Queries are read-only and thread-safe.
 class TriangleBvh {
  public:
-  static constexpr int kLeafSize = 4;
+  static constexpr int kLeafSize = 8;
 
   /// Builds the tree (multi-threaded). Triangles with an index out of range are skipped.
   /// @param[in] positions  #V by 3 vertex positions
@@ -28,10 +29,10 @@ class TriangleBvh {
   /// True when the tree holds no triangle.
   bool empty() const { return tri_.empty(); }
 
-  /// The closest point of the surface to `p`. Only squared distances below `bound_sq` are
-  /// searched for (pass a known upper bound to prune more); when nothing is closer than it,
-  /// the result has distance_sq = bound_sq and face = UINT32_MAX. Requires !empty().
-  ClosestHit closest(const std::array<float, 3>& p, float bound_sq) const;
+  /// The closest point of the surface to `p`. `hint` is the slot of a triangle likely to be
+  /// close (the previous hit of a nearby query): the search starts from its distance, which
+  /// prunes most of the tree. Requires !empty().
+  ClosestHit closest(const std::array<float, 3>& p, uint32_t hint = UINT32_MAX) const;
 
  private:
   struct Node {
