@@ -43,7 +43,7 @@ options:
   --out DIR         output directory (default: the current directory)
   --samples N       random surface samples per surface for the distances (default 200000)
   --iterations LIST cardioid only: the iteration counts, comma-separated
-                    (default 2,3,4,6,8,12,16,24,32)
+                    (default 4,5,6,7,8,10,12,16,24,32)
 )";
 
 // ---------------------------------------------------------------------------------------------
@@ -108,7 +108,7 @@ const std::uint8_t* glyph(char ch) {
   static const std::uint8_t kLetters[26][5] = {
       {2, 5, 7, 5, 5}, {6, 5, 6, 5, 6}, {3, 4, 4, 4, 3}, {6, 5, 5, 5, 6}, {7, 4, 6, 4, 7},
       {7, 4, 6, 4, 4}, {3, 4, 5, 5, 3}, {5, 5, 7, 5, 5}, {7, 2, 2, 2, 7}, {1, 1, 1, 5, 2},
-      {5, 5, 6, 5, 5}, {4, 4, 4, 4, 7}, {5, 7, 7, 5, 5}, {6, 5, 5, 5, 5}, {2, 5, 5, 5, 2},
+      {5, 5, 6, 5, 5}, {4, 4, 4, 4, 7}, {5, 7, 5, 5, 5}, {5, 7, 7, 5, 5}, {2, 5, 5, 5, 2},
       {6, 5, 6, 4, 4}, {2, 5, 5, 6, 3}, {6, 5, 6, 5, 5}, {3, 4, 2, 1, 6}, {7, 2, 2, 2, 2},
       {5, 5, 5, 5, 7}, {5, 5, 5, 5, 2}, {5, 5, 7, 7, 5}, {5, 5, 2, 5, 5}, {5, 5, 2, 2, 2},
       {7, 1, 2, 4, 7}};
@@ -388,27 +388,35 @@ TriMesh inner_part(const TriMesh& m, const Params& p) {
 }
 
 Image plot(const std::vector<int>& xs, const std::vector<std::vector<double>>& series,
-           const std::vector<Rgb>& colors, double reference, const std::string& title) {
+           const std::vector<Rgb>& colors, const std::vector<std::string>& names, double reference,
+           const std::string& title) {
   const int w = 900, h = 560, left = 90, right = 30, top = 50, bottom = 70;
   Image im = blank(w, h, {255, 255, 255});
-  double ymax = reference;
-  for (const auto& s : series)
-    for (double y : s)
-      if (std::isfinite(y)) ymax = std::max(ymax, y);
-  ymax = ymax > 0 ? ymax * 1.08 : 1;
+  // y on a log10 scale, whole decades: the distances fall over several of them.
+  double ymin = reference, ymax = reference;
+  for (const auto& ser : series)
+    for (double y : ser)
+      if (std::isfinite(y) && y > 0) {
+        ymin = std::min(ymin, y);
+        ymax = std::max(ymax, y);
+      }
+  const int d0 = static_cast<int>(std::floor(std::log10(ymin))),
+            d1 = std::max(d0 + 1, static_cast<int>(std::ceil(std::log10(ymax))));
   // x on a log2 scale: the iteration counts roughly double.
   const double lx0 = std::log2(std::max(1, xs.front())), lx1 = std::log2(std::max(2, xs.back()));
   auto px = [&](double x) {
     return left + (std::log2(x) - lx0) / std::max(1e-9, lx1 - lx0) * (w - left - right);
   };
-  auto py = [&](double y) { return h - bottom - y / ymax * (h - top - bottom); };
+  auto py = [&](double y) {
+    const double t = (std::log10(std::max(y, std::pow(10.0, d0))) - d0) / (d1 - d0);
+    return h - bottom - t * (h - top - bottom);
+  };
   // Axes, grid and ticks.
   const Rgb axis{0, 0, 0}, grid_rgb{225, 225, 225};
-  const double step = std::pow(10.0, std::floor(std::log10(ymax / 5)));
-  const double tick = ymax / step > 25 ? 5 * step : ymax / step > 10 ? 2 * step : step;
-  for (double y = 0; y <= ymax; y += tick) {
+  for (int d = d0; d <= d1; ++d) {
+    const double y = std::pow(10.0, d);
     line(im, left, py(y), w - right, py(y), grid_rgb, 1);
-    const std::string label = fmt(y, "%.3g");
+    const std::string label = fmt(y, "%g");
     text(im, left - 8 - text_width(label, 2), static_cast<int>(py(y)) - 5, label, axis);
   }
   for (int x : xs) {
@@ -418,11 +426,22 @@ Image plot(const std::vector<int>& xs, const std::vector<std::vector<double>>& s
   }
   line(im, left, h - bottom, w - right, h - bottom, axis, 2);
   line(im, left, h - bottom, left, top, axis, 2);
-  text(im, (w - text_width("ITERATIONS N (LOG SCALE)", 2)) / 2, h - 28, "ITERATIONS N (LOG SCALE)",
-       axis);
+  text(im, (w - text_width("ITERATIONS N", 2)) / 2, h - 28, "ITERATIONS N", axis);
   text(im, (w - text_width(title, 3)) / 2, 15, title, axis, 3);
   // The voxel size, dashed: below it the distance is resolution-limited.
   line(im, left, py(reference), w - right, py(reference), {130, 130, 130}, 2, true);
+  // The legend, top right.
+  for (std::size_t s = 0; s <= series.size(); ++s) {
+    const int y = top + 12 + static_cast<int>(s) * 22;
+    const int x = w - right - 300;
+    if (s < series.size()) {
+      fill_rect(im, x, y - 2, x + 28, y + 3, colors[s]);
+      text(im, x + 40, y - 5, names[s], axis);
+    } else {
+      line(im, x, y, x + 28, y, {130, 130, 130}, 2, true);
+      text(im, x + 40, y - 5, "ONE VOXEL", axis);
+    }
+  }
   for (std::size_t s = 0; s < series.size(); ++s) {
     for (std::size_t i = 0; i + 1 < xs.size(); ++i)
       if (std::isfinite(series[s][i]) && std::isfinite(series[s][i + 1]))
@@ -438,7 +457,7 @@ Image plot(const std::vector<int>& xs, const std::vector<std::vector<double>>& s
 
 int run_cardioid(const Options& o) {
   std::vector<int> iterations = o.iterations;
-  if (iterations.empty()) iterations = {2, 3, 4, 6, 8, 12, 16, 24, 32};
+  if (iterations.empty()) iterations = {4, 5, 6, 7, 8, 10, 12, 16, 24, 32};
   Params base;
   base.formula = "h^2+c";
   base.constants.clear();
@@ -510,12 +529,13 @@ int run_cardioid(const Options& o) {
   std::string plot_note;
   const std::string png = o.out + "/cardioid.png";
   try {
-    const Image im =
-        plot(iterations, {hausdorff, mean_ec, mean_ce},
-             {{210, 30, 30}, {30, 80, 210}, {20, 150, 60}}, voxel, "ESCAPE VS CUT-OFF: DISTANCE");
+    const Image im = plot(iterations, {hausdorff, mean_ec, mean_ce},
+                          {{210, 30, 30}, {30, 80, 210}, {20, 150, 60}},
+                          {"HAUSDORFF", "MEAN ESCAPE > CUT-OFF", "MEAN CUT-OFF > ESCAPE"}, voxel,
+                          "ESCAPE VS CUT-OFF: DISTANCE");
     write_png(png, im);
     plot_note =
-        "\nPlot: cardioid.png (x: iterations, log scale; red: Hausdorff distance; blue: "
+        "\nPlot: cardioid.png (log-log; x: iterations; y: distance; red: Hausdorff distance; blue: "
         "mean escape -> cut-off; green: mean cut-off -> escape; dashed grey: one "
         "voxel).\n";
   } catch (const std::exception& e) {
