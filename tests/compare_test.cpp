@@ -295,3 +295,42 @@ TEST(CompareCli, TwoPresetsGiveATableAndJson) {
   EXPECT_NE(text.str().find("\"hausdorff\""), std::string::npos);
   EXPECT_NE(text.str().find("\"b_name\": \"preset newton-escape\""), std::string::npos);
 }
+
+TEST(ExperimentCli, CardioidDistanceShrinksAsIterationsGrow) {
+  const auto dir = scratch_dir("cardioid");
+  const auto r = run_cli(
+      "experiment cardioid --resolution 32 --iterations 6,16 --samples 20000 "
+      "--out " +
+      dir.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in(dir / "cardioid.csv");
+  std::string header, row6, row16;
+  std::getline(in, header);
+  std::getline(in, row6);
+  std::getline(in, row16);
+  auto column = [&](const std::string& row, const std::string& name) {
+    std::vector<std::string> names, values;
+    std::stringstream h(header), v(row);
+    std::string cell;
+    while (std::getline(h, cell, ',')) names.push_back(cell);
+    while (std::getline(v, cell, ',')) values.push_back(cell);
+    for (std::size_t i = 0; i < names.size() && i < values.size(); ++i)
+      if (names[i] == name) return std::stod(values[i]);
+    ADD_FAILURE() << "no column " << name << " in " << row;
+    return 0.0;
+  };
+  EXPECT_EQ(column(row6, "iterations"), 6);
+  EXPECT_EQ(column(row16, "iterations"), 16);
+  // Both approximations close in on J: the escape solid shrinks, the cut-off hole grows, and
+  // the surfaces come together.
+  EXPECT_LT(column(row16, "hausdorff"), column(row6, "hausdorff"));
+  EXPECT_LT(column(row16, "escape_volume"), column(row6, "escape_volume"));
+  EXPECT_GT(column(row16, "cutoff_volume"), column(row6, "cutoff_volume"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "cardioid.md"));
+}
+
+TEST(ExperimentCli, UnknownExperimentExitsTwo) {
+  const auto r = run_cli("experiment table9");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("table9"), std::string::npos) << r.output;
+}
