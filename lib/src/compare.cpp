@@ -268,7 +268,7 @@ std::string genus_summary(const MeshMeasure& m, std::size_t max_groups) {
   std::ostringstream out;
   bool first = true;
   for (const auto& [g, n] : groups) {
-    out << (first ? "" : ", ") << "genus " << g << " x" << n;
+    out << (first ? "genus " : ", ") << g << " x" << n;
     first = false;
   }
   if (more) out << ", +" << more << " more";

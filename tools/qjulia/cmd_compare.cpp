@@ -124,7 +124,7 @@ std::string fmt(double x) {
 
 void print_table(const CompareResult& r, const std::string& na, const std::string& nb) {
   auto row = [](const std::string& name, const std::string& a, const std::string& b) {
-    std::printf("  %-20s %-36s %-36s\n", name.c_str(), a.c_str(), b.c_str());
+    std::printf("  %-20s %-38s %s\n", name.c_str(), a.c_str(), b.c_str());
   };
   auto bbox = [](const std::array<double, 3>& v) {
     return fmt(v[0]) + ", " + fmt(v[1]) + ", " + fmt(v[2]);

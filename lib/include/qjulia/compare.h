@@ -49,7 +49,7 @@ std::vector<std::array<float, 3>> distance_colors(const std::vector<float>& valu
 std::string compare_legend_json(double lo, double hi, const std::string& name_a,
                                 const std::string& name_b);
 
-/// The genus of the closed components in one line, e.g. "genus 0 x3, genus 2 x1; 1 open"
+/// The genus of the closed components in one line, e.g. "genus 0 x3, 2 x1; 1 open"
 /// ("none" without components). With max_groups > 0, at most that many genus values are listed
 /// (the most frequent first, then "+K more").
 std::string genus_summary(const MeshMeasure& m, std::size_t max_groups = 0);
