@@ -173,13 +173,16 @@ TEST(Compare, MeasuresBothSurfaces) {
   EXPECT_EQ(qjulia::genus_summary(r.a), "genus 0 x1");
 }
 
-TEST(Compare, AMeshWithoutFacesIsInvalidInput) {
+TEST(Compare, AnEmptyOrBrokenMeshIsInvalidInput) {
   const TriMesh empty;
   EXPECT_THROW(qjulia::compare(empty, cube()), qjulia::InvalidInput);
   EXPECT_THROW(qjulia::compare(cube(), empty), qjulia::InvalidInput);
   TriMesh broken = cube();
   broken.triangles[3][1] = 99;
   EXPECT_THROW(qjulia::compare(broken, cube()), qjulia::InvalidInput);
+  TriMesh nan = cube();
+  nan.positions[2][1] = std::nanf("");
+  EXPECT_THROW(qjulia::compare(cube(), nan), qjulia::InvalidInput);
 }
 
 TEST(Compare, ProgressCanCancel) {

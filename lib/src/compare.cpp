@@ -186,6 +186,12 @@ CompareResult compare(const TriMesh& a, const TriMesh& b, const CompareOptions& 
                            std::to_string(std::max({t[0], t[1], t[2]})) +
                            " >= " + std::to_string(m->positions.size()) + ")");
 
+  for (const TriMesh* m : {&a, &b})
+    for (std::size_t v = 0; v < m->positions.size(); ++v)
+      for (float x : m->positions[v])
+        if (!std::isfinite(x))
+          throw InvalidInput(std::string("compare: surface ") + (m == &a ? "a" : "b") +
+                             " has a non-finite position at vertex " + std::to_string(v));
   CompareResult result;
   std::unique_ptr<detail::TriangleBvh> bvh_a, bvh_b;
   Samples sa, sb;

@@ -36,7 +36,11 @@ struct CompareResult {
   std::vector<float> a_vertex_distance;  ///< per vertex of a, distance to b
 };
 
-/// Compares two meshes. @throws InvalidInput when either has no faces.
+/// Compares two meshes: measures both (measure()) and estimates the distances from every vertex
+/// and `opts.samples` area-proportional random points of each surface to the other (exact
+/// point-to-triangle distances through a BVH; multi-threaded; deterministic for a given seed).
+/// @throws InvalidInput when either has no faces, an index out of range or a non-finite
+///         position; Cancelled when opts.progress returns false.
 CompareResult compare(const TriMesh& a, const TriMesh& b, const CompareOptions& opts = {});
 
 /// A colour ramp for per-vertex values (blue - cyan - green - yellow - red from `lo` to `hi`;
