@@ -209,6 +209,18 @@ TEST(Compare, DistanceColorsRampFromBlueToRed) {
 // The methods compared: the escape method fails on Newton's cubic (DESIGN.md; the paper's
 // table 1). Its solid is the bailout ball with holes, the cut-off solid a thin shell around J.
 
+TEST(Compare, UnitBallMeshedAtTwoResolutionsComparesWithinOneVoxelOfTheCoarser) {
+  qjulia::Params coarse = qjulia::preset("unit-ball"), fine = coarse;
+  coarse.resolution = 24;
+  fine.resolution = 48;
+  const TriMesh a = qjulia::run_pipeline(coarse).mesh, b = qjulia::run_pipeline(fine).mesh;
+  const double voxel = (coarse.bounds.max[0] - coarse.bounds.min[0]) / coarse.resolution;
+  const auto r = qjulia::compare(a, b, small_options());
+  EXPECT_GT(r.hausdorff, 0.0);
+  EXPECT_LT(r.hausdorff, voxel);
+  EXPECT_NEAR(r.a.volume, 4.0 / 3 * M_PI, 0.05 * 4.0 / 3 * M_PI);
+}
+
 TEST(Compare, EscapeMethodOnNewtonsCubicIsFarFromTheCutOffSurface) {
   qjulia::Params cut = qjulia::preset("newton-cubic"), esc = qjulia::preset("newton-escape");
   cut.resolution = esc.resolution = 32;
