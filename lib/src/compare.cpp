@@ -41,14 +41,14 @@ bool valid_face(const TriMesh& m, const std::array<uint32_t, 3>& t) {
 }
 
 // The surface samples of `m`: its referenced vertices first (their indices in `vertex_of`),
-// then `count` random points, stratified along the cumulative area so every face gets its
-// share (area * density, rounded randomly).
+// then random points up to `total_samples`, stratified along the cumulative area so every face gets
+// its share (area * density, rounded randomly).
 struct Samples {
   std::vector<Point> points;
   std::vector<uint32_t> vertex_of;  // the vertex of points[i] for i < vertex_of.size()
 };
 
-Samples make_samples(const TriMesh& m, std::size_t count, std::uint64_t seed) {
+Samples make_samples(const TriMesh& m, std::size_t total_samples, std::uint64_t seed) {
   Samples s;
   std::vector<char> used(m.positions.size(), 0);
   for (const auto& t : m.triangles)
@@ -72,6 +72,9 @@ Samples make_samples(const TriMesh& m, std::size_t count, std::uint64_t seed) {
     cumulative[f + 1] = cumulative[f] + area;
   }
   const double total = cumulative.back();
+  // The vertices count towards the total; a mesh with more vertices than that is sampled by its
+  // vertices alone (they are then denser than the requested samples).
+  std::size_t count = total_samples > nv ? total_samples - nv : 0;
   if (!(total > 0)) count = 0;
   s.points.resize(nv + count);
   tbb::parallel_for(

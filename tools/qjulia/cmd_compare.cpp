@@ -1,6 +1,7 @@
 // qjulia compare A B: measures of two surfaces (mesh files or parameter sets) and the two-sided
 // Hausdorff distance between them.
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -33,7 +34,8 @@ options:
   --json FILE       write the measures and distances as JSON
   --colored FILE    write A with its per-vertex distance to B as a colour ramp
                     (blue = 0 ... red = the largest distance; the range is in the metadata)
-  --samples N       random surface samples per surface, besides the vertices (default 1000000)
+  --samples N       surface samples per surface: every vertex, then area-proportional random
+                    points up to N (default 1000000)
   --quiet           no progress bar
 )";
 
@@ -198,8 +200,17 @@ int cmd_compare(const Tokens& tokens) {
       throw InvalidInput(sources[i].value + ": cannot open the file (missing or unreadable)");
     }
   }
+  using Clock = std::chrono::steady_clock;
+  auto since = [](Clock::time_point t) {
+    return std::chrono::duration<double>(Clock::now() - t).count();
+  };
+  const auto t0 = Clock::now();
   const TriMesh a = make_mesh(sources[0], params[0], quiet);
+  const double time_a = since(t0);
+  const auto t1 = Clock::now();
   const TriMesh b = make_mesh(sources[1], params[1], quiet);
+  const double time_b = since(t1);
+  const auto t2 = Clock::now();
   if (a.triangles.empty()) throw InvalidInput(sources[0].label() + ": the surface is empty");
   if (b.triangles.empty()) throw InvalidInput(sources[1].label() + ": the surface is empty");
 
@@ -211,7 +222,10 @@ int cmd_compare(const Tokens& tokens) {
   const CompareResult r = compare(a, b, opts);
   bar.finish();
 
+  const double time_compare = since(t2);
   print_table(r, sources[0].label(), sources[1].label());
+  std::printf("  time                 A %.2f s (%s), B %.2f s (%s), compare %.2f s\n", time_a,
+              params[0] ? "meshed" : "read", time_b, params[1] ? "meshed" : "read", time_compare);
   if (!json_path.empty())
     write_file_atomic(json_path, compare_to_json(r, sources[0].label(), sources[1].label()));
   if (!colored_path.empty()) {

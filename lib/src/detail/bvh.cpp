@@ -134,9 +134,87 @@ uint32_t TriangleBvh::build(std::vector<uint32_t>& order,
     nodes_[index] = node;
     return index;
   }
-  const uint32_t mid = begin + (end - begin) / 2;
-  std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end,
-                   [&](uint32_t x, uint32_t y) { return centroid[x][axis] < centroid[y][axis]; });
+  // Binned surface area heuristic on the three axes: the split that minimises
+  // area(left) * count(left) + area(right) * count(right), i.e. the expected work of a query.
+  constexpr int kBins = 16;
+  struct Bin {
+    float lo[3], hi[3];
+    uint32_t count = 0;
+  };
+  auto empty_box = [](float lo[3], float hi[3]) {
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::numeric_limits<float>::max();
+      hi[k] = std::numeric_limits<float>::lowest();
+    }
+  };
+  auto area = [](const float lo[3], const float hi[3]) {
+    const float x = hi[0] - lo[0], y = hi[1] - lo[1], z = hi[2] - lo[2];
+    return x < 0 ? 0.0f : x * y + y * z + z * x;
+  };
+  float best_cost = std::numeric_limits<float>::max();
+  int best_axis = -1, best_bin = 0;
+  for (int ax = 0; ax < 3; ++ax) {
+    const float extent = chi[ax] - clo[ax];
+    if (!(extent > 0)) continue;
+    Bin bins[kBins];
+    for (auto& b : bins) empty_box(b.lo, b.hi);
+    const float scale = kBins / extent;
+    for (uint32_t i = begin; i < end; ++i) {
+      const int b =
+          std::min(kBins - 1, static_cast<int>((centroid[order[i]][ax] - clo[ax]) * scale));
+      const Tri& t = tris[order[i]];
+      ++bins[b].count;
+      for (int k = 0; k < 3; ++k) {
+        const float p1 = t.a[k] + t.ab[k], p2 = t.a[k] + t.ac[k];
+        bins[b].lo[k] = std::min({bins[b].lo[k], t.a[k], p1, p2});
+        bins[b].hi[k] = std::max({bins[b].hi[k], t.a[k], p1, p2});
+      }
+    }
+    // Sweep from the right to get the cost of every right side, then from the left.
+    float right_cost[kBins];
+    float lo[3], hi[3];
+    empty_box(lo, hi);
+    uint32_t n = 0;
+    for (int b = kBins - 1; b > 0; --b) {
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], bins[b].lo[k]);
+        hi[k] = std::max(hi[k], bins[b].hi[k]);
+      }
+      n += bins[b].count;
+      right_cost[b] = n ? area(lo, hi) * n : 0;
+    }
+    empty_box(lo, hi);
+    n = 0;
+    for (int b = 0; b + 1 < kBins; ++b) {
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], bins[b].lo[k]);
+        hi[k] = std::max(hi[k], bins[b].hi[k]);
+      }
+      n += bins[b].count;
+      if (n == 0 || n == end - begin) continue;
+      const float cost = area(lo, hi) * n + right_cost[b + 1];
+      if (cost < best_cost) {
+        best_cost = cost;
+        best_axis = ax;
+        best_bin = b;
+      }
+    }
+  }
+  uint32_t mid = begin + (end - begin) / 2;
+  if (best_axis >= 0) {
+    const float scale = kBins / (chi[best_axis] - clo[best_axis]);
+    const float lo_axis = clo[best_axis];
+    auto it = std::partition(order.begin() + begin, order.begin() + end, [&](uint32_t x) {
+      return std::min(kBins - 1, static_cast<int>((centroid[x][best_axis] - lo_axis) * scale)) <=
+             best_bin;
+    });
+    mid = static_cast<uint32_t>(it - order.begin());
+  }
+  if (best_axis < 0 || mid == begin || mid == end) {  // no useful split: the median
+    mid = begin + (end - begin) / 2;
+    std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end,
+                     [&](uint32_t x, uint32_t y) { return centroid[x][axis] < centroid[y][axis]; });
+  }
   build(order, centroid, tris, begin, mid, depth + 1);  // the left child is index + 1
   node.first = build(order, centroid, tris, mid, end, depth + 1);
   node.count = 0;
