@@ -96,17 +96,26 @@ TriangleBvh::TriangleBvh(const std::vector<std::array<float, 3>>& positions,
         {(a[0] + b[0] + c[0]) / 3, (a[1] + b[1] + c[1]) / 3, (a[2] + b[2] + c[2]) / 3});
   }
   if (tris.empty()) return;
+  std::vector<std::array<float, 6>> boxes(tris.size());  // lo, hi of each triangle
+  for (std::size_t i = 0; i < tris.size(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      const Tri& t = tris[i];
+      const float b = t.a[k] + t.ab[k], c = t.a[k] + t.ac[k];
+      boxes[i][k] = std::min({t.a[k], b, c});
+      boxes[i][3 + k] = std::max({t.a[k], b, c});
+    }
   std::vector<uint32_t> order(tris.size());
   for (uint32_t i = 0; i < order.size(); ++i) order[i] = i;
   nodes_.reserve(2 * tris.size() / kLeafSize + 2);
-  build(order, centroid, tris, 0, static_cast<uint32_t>(order.size()), 0);
+  build(order, centroid, boxes, 0, static_cast<uint32_t>(order.size()), 0);
   tri_.resize(order.size());
   for (std::size_t i = 0; i < order.size(); ++i) tri_[i] = tris[order[i]];
 }
 
 uint32_t TriangleBvh::build(std::vector<uint32_t>& order,
                             const std::vector<std::array<float, 3>>& centroid,
-                            const std::vector<Tri>& tris, uint32_t begin, uint32_t end, int depth) {
+                            const std::vector<std::array<float, 6>>& boxes, uint32_t begin,
+                            uint32_t end, int depth) {
   const uint32_t index = static_cast<uint32_t>(nodes_.size());
   nodes_.push_back({});
   Node node;
@@ -116,11 +125,10 @@ uint32_t TriangleBvh::build(std::vector<uint32_t>& order,
     node.hi[k] = chi[k] = std::numeric_limits<float>::lowest();
   }
   for (uint32_t i = begin; i < end; ++i) {
-    const Tri& t = tris[order[i]];
+    const auto& box = boxes[order[i]];
     for (int k = 0; k < 3; ++k) {
-      const float b = t.a[k] + t.ab[k], c = t.a[k] + t.ac[k];
-      node.lo[k] = std::min({node.lo[k], t.a[k], b, c});
-      node.hi[k] = std::max({node.hi[k], t.a[k], b, c});
+      node.lo[k] = std::min(node.lo[k], box[k]);
+      node.hi[k] = std::max(node.hi[k], box[3 + k]);
       clo[k] = std::min(clo[k], centroid[order[i]][k]);
       chi[k] = std::max(chi[k], centroid[order[i]][k]);
     }
@@ -162,12 +170,11 @@ uint32_t TriangleBvh::build(std::vector<uint32_t>& order,
     for (uint32_t i = begin; i < end; ++i) {
       const int b =
           std::min(kBins - 1, static_cast<int>((centroid[order[i]][ax] - clo[ax]) * scale));
-      const Tri& t = tris[order[i]];
+      const auto& box = boxes[order[i]];
       ++bins[b].count;
       for (int k = 0; k < 3; ++k) {
-        const float p1 = t.a[k] + t.ab[k], p2 = t.a[k] + t.ac[k];
-        bins[b].lo[k] = std::min({bins[b].lo[k], t.a[k], p1, p2});
-        bins[b].hi[k] = std::max({bins[b].hi[k], t.a[k], p1, p2});
+        bins[b].lo[k] = std::min(bins[b].lo[k], box[k]);
+        bins[b].hi[k] = std::max(bins[b].hi[k], box[3 + k]);
       }
     }
     // Sweep from the right to get the cost of every right side, then from the left.
@@ -215,8 +222,8 @@ uint32_t TriangleBvh::build(std::vector<uint32_t>& order,
     std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end,
                      [&](uint32_t x, uint32_t y) { return centroid[x][axis] < centroid[y][axis]; });
   }
-  build(order, centroid, tris, begin, mid, depth + 1);  // the left child is index + 1
-  node.first = build(order, centroid, tris, mid, end, depth + 1);
+  build(order, centroid, boxes, begin, mid, depth + 1);  // the left child is index + 1
+  node.first = build(order, centroid, boxes, mid, end, depth + 1);
   node.count = 0;
   nodes_[index] = node;
   return index;

@@ -48,7 +48,8 @@ class TriangleBvh {
   };
 
   uint32_t build(std::vector<uint32_t>& order, const std::vector<std::array<float, 3>>& centroid,
-                 const std::vector<Tri>& tris, uint32_t begin, uint32_t end, int depth);
+                 const std::vector<std::array<float, 6>>& boxes, uint32_t begin, uint32_t end,
+                 int depth);
 
   std::vector<Node> nodes_;
   std::vector<Tri> tri_;
