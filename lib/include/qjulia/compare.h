@@ -21,7 +21,8 @@ struct DirectedDistance {
 /// Options of compare().
 struct CompareOptions {
   /// Surface samples per unit area is chosen so each surface gets about this many samples
-  /// (vertices are always included).
+  /// (vertices are always included: every vertex, then area-proportional random points up to
+  /// this many in all).
   std::size_t samples = 1000000;
   /// Seed of the random surface samples: the same meshes and seed give the same result.
   std::uint64_t seed = 20260101;
@@ -37,7 +38,7 @@ struct CompareResult {
 };
 
 /// Compares two meshes: measures both (measure()) and estimates the distances from every vertex
-/// and `opts.samples` area-proportional random points of each surface to the other (exact
+/// and area-proportional random points of each surface (opts.samples in all) to the other (exact
 /// point-to-triangle distances through a BVH; multi-threaded; deterministic for a given seed).
 /// @throws InvalidInput when either has no faces, an index out of range or a non-finite
 ///         position; Cancelled when opts.progress returns false.
