@@ -1,1 +1,129 @@
-// being written
+// qjulia mesh: the whole pipeline from parameters to a mesh file and its stats.
+#include <tbb/global_control.h>
+
+#include <cstdio>
+#include <memory>
+
+#include "cli.h"
+#include "commands.h"
+#include "files.h"
+#include "progress_bar.h"
+#include "qjulia/error.h"
+#include "qjulia/export.h"
+#include "qjulia/pipeline.h"
+#include "qjulia/render.h"
+
+namespace qjulia::cli {
+namespace {
+
+constexpr const char* kHelp = R"(usage: qjulia mesh [PARAMS.json] [options] -o OUT.(glb|gltf|obj|ply|stl|3mf)
+
+Meshes the solid of a quaternionic Julia set. Without parameters: the Newton cubic
+(2h^3+1)/(3h^2) with the cut-off method (preset newton-cubic).
+
+parameters (override the file or preset):
+  --preset NAME              start from a built-in preset (qjulia presets)
+  --formula F                e.g. "h^2+c", "(2*h^3+1)/(3*h^2)", "p*h^2+q"
+  --const NAME=w,x,y,z       a quaternion constant (repeatable); NAME=real for a real one
+  --mode julia|mandelbrot    mandelbrot: the sampled point is c, h0 = --start
+  --method escape|cutoff     escape: |h_k| <= R for all k; cutoff: |h_k - h_k-1| >= R for all k
+  --iterations N             N (1..100000)
+  --bailout R                R > 0
+  --resolution N             voxels along the longest side of the box (2..4096)
+  --bounds x0,y0,z0,x1,y1,z1 the sampled box
+  --axes rmn --fixed W       which quaternion components x, y, z are; the fourth is W
+  --start w,x,y,z            h0 in Mandelbrot mode
+mesh:
+  --color iterations|basin|none   per-vertex colours
+  --faces N, --max-error E   decimate to N faces / within distance E
+  --min-component V          drop components of volume below V (model units^3)
+  --clip nx,ny,nz,d          keep n.x <= d, closed by a flat cap (repeatable)
+print:
+  --size 80mm                scale the longest side to this length (output in mm)
+  --min-thickness 0.8mm      thicken parts thinner than this
+  --check                    count self-intersections
+run:
+  -o, --output OUT           the mesh file; the format follows the extension
+  --stats FILE               figures of the run as JSON
+  --vdb FILE                 the sampled grid as an OpenVDB file
+  --preview FILE.png         a preview image of the mesh
+  --dense                    evaluate every grid point (validation)
+  --threads T                worker threads (default: all cores)
+  --quiet                    no progress bar
+)";
+
+}  // namespace
+
+int cmd_mesh(const Tokens& tokens) {
+  auto specs = param_option_specs();
+  for (const char* name : {"output", "stats", "vdb", "preview", "threads"}) specs.push_back({name});
+  for (const char* name : {"dense", "quiet", "help"}) specs.push_back({name, false});
+  const ParsedArgs args = parse_args(tokens, specs, "mesh");
+  if (args.has("help")) {
+    std::fputs(kHelp, stdout);
+    return 0;
+  }
+  if (args.positional.size() > 1)
+    throw InvalidInput("expected at most one parameter file, got '" + args.positional[1] + "'");
+  const auto out = args.get("output");
+  if (!out) throw InvalidInput("missing -o OUT (e.g. -o julia.glb)");
+  format_from_path(*out);  // an unknown extension fails before any work
+  const Params params = params_from_args(args, args.positional.empty() ? "" : args.positional[0]);
+  std::unique_ptr<tbb::global_control> threads;
+  if (auto t = args.get("threads")) {
+    const long long n = parse_int(*t, "--threads");
+    if (n < 1 || n > 1024) throw InvalidInput("--threads: must be in 1..1024");
+    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                    static_cast<std::size_t>(n));
+  }
+  const auto preview = args.get("preview");
+  if (preview && preview->size() < 4) throw InvalidInput("--preview: expected a .png file name");
+
+  PipelineOptions popts;
+  popts.dense = args.has("dense");
+  popts.keep_grid = args.has("vdb");
+  ProgressBar bar(args.has("quiet"));
+  popts.progress = bar.callback();
+  PipelineResult result = run_pipeline(params, popts);
+  bar.finish();
+
+  OutputFiles written;
+  const std::string params_json = params_to_json(params);
+  ExportOptions eopts;
+  eopts.params_json = params_json;
+  eopts.unit = result.stats.unit;
+  write_mesh(*out, result.mesh, eopts);
+  written.add(*out);
+  if (auto v = args.get("vdb")) {
+    result.grid->write_vdb(*v, params_json);
+    written.add(*v);
+  }
+  if (preview) {
+    write_png(*preview, render(result.mesh, RenderOptions{}));
+    written.add(*preview);
+  }
+  const auto stats_path = args.get("stats");
+  if (stats_path) {
+    result.stats.peak_rss_bytes = peak_rss_bytes();
+    write_file_atomic(*stats_path, stats_to_json(result.stats, params));
+    written.add(*stats_path);
+  }
+  written.commit();
+
+  const MeshMeasure& m = result.stats.measure;
+  std::printf("mesh:  %s (%zu vertices, %zu faces, %s, %s, volume %.6g, area %.6g)\n", out->c_str(),
+              m.vertices, m.faces, m.closed ? "closed" : "OPEN",
+              m.manifold ? "manifold" : "NON-MANIFOLD", m.volume, m.area);
+  if (stats_path) std::printf("stats: %s\n", stats_path->c_str());
+  if (auto v = args.get("vdb")) std::printf("grid:  %s\n", v->c_str());
+  if (preview) std::printf("preview: %s\n", preview->c_str());
+  double total = 0;
+  for (const auto& [stage, s] : result.stats.timings) total += s;
+  std::printf("evaluations: %llu of %llu dense (%.2f%%), %.2f s\n",
+              static_cast<unsigned long long>(result.stats.evaluations),
+              static_cast<unsigned long long>(result.stats.dense_evaluations),
+              100.0 * result.stats.evaluations / result.stats.dense_evaluations, total);
+  return 0;
+}
+
+}  // namespace qjulia::cli

@@ -49,17 +49,21 @@ class Solid {
  public:
   explicit Solid(const Params& params);
   const Classifier& classifier() const { return classifier_; }
-  /// Field of the whole solid at (x, y, z), in the classifier's units.
+  /// Field of the whole solid at (x, y, z): the constraint in voxels where it excludes the
+  /// point, else max(F, constraint in voxels), so caps are flat and F is never evaluated
+  /// outside the box.
   float field(double x, double y, double z) const;
   /// Exact: in the box, on the kept side of every clip plane, and classified inside.
   bool inside(double x, double y, double z) const { return field(x, y, z) <= 0; }
-  /// The signed value of the box and clip constraints alone (<= 0 where they keep the point).
+  /// The signed distance to the box and clip constraints alone, model units (<= 0 where they
+  /// keep the point).
   double constraint(double x, double y, double z) const;
 
  private:
   Classifier classifier_;
   std::array<double, 3> min_, max_;
   std::vector<ClipPlane> clip_;  // normalised
+  double voxel_ = 1.0;
 };
 
 }  // namespace qjulia

@@ -14,6 +14,7 @@
 ///   func    := conj | inv | norm (|q|^2 as a real quaternion) | abs (|q|) | sqr
 /// Names are the variable `h` and any constant given to compile(). Products are evaluated in
 /// the order written: p*h^2 multiplies p on the left.
+#include <cstddef>
 #include <memory>
 #include <string>
 #include <vector>
@@ -26,6 +27,9 @@ namespace qjulia {
 /// thread-safe and allocation-free.
 class Formula {
  public:
+  /// The identity formula f(h) = h with no constants.
+  Formula();
+
   /// Parses and compiles `text`.
   /// @param[in] text  the formula, e.g. "(2*h^3+1)/(3*h^2)"
   /// @param[in] constant_names  names that may appear as constants, in the order of the values
@@ -47,6 +51,8 @@ class Formula {
   /// True when every literal and constant used is real and the formula uses only h, so it
   /// commutes with rotations about the real axis (the rotation-symmetry facts of DESIGN.md).
   bool has_real_coefficients(const Quat* constants) const;
+  /// Number of register operations one eval() runs (h^3 takes 2; literal-only parts fold to 0).
+  std::size_t operation_count() const;
 
   struct Program;  ///< the compiled form (internal)
 

@@ -76,6 +76,7 @@ struct PrintParams {
 
 /// A complete parameter set. Every field has the default of the built-in Newton cubic.
 struct Params {
+  std::string description;  ///< one line about the set (presets have one)
   std::string formula = "(2*h^3+1)/(3*h^2)";
   /// Named quaternion constants, in file order.
   std::vector<std::pair<std::string, Quat>> constants;

@@ -11,6 +11,18 @@
 
 namespace qjulia {
 
+/// Where the grid points of a parameter set are: point (i, j, k) is at origin + (i, j, k) *
+/// voxel for 0 <= i < points[0] etc.; the last point of an axis may lie beyond bounds.max (then
+/// it is outside the box).
+struct GridGeometry {
+  std::array<double, 3> origin{0, 0, 0};
+  double voxel = 1.0;               ///< longest side of the box / resolution
+  std::array<int, 3> points{0, 0, 0};
+};
+
+/// The grid of `params` (not validated here).
+GridGeometry grid_geometry(const Params& params);
+
 /// Options of sample().
 struct SampleOptions {
   /// Evaluate every grid point instead of refining coarse blocks (the validation path).
