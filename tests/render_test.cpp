@@ -333,18 +333,19 @@ TEST(ContactSheet, LaysOutCellsWithCaptions) {
   o.padding = 4;
   o.text_scale = 1;
   const Image sheet = contact_sheet({{red, "a"}, {red, "b"}, {red, "c"}}, 2, o);
-  // Two columns of 20 + 2 * 4; two rows of 4 + 10 + (2 + 7) + 4.
+  // Two columns of 20 + 2 * 4; two rows of 4 + 10 + (2 + 9) + 4.
   EXPECT_EQ(sheet.width, 56);
-  EXPECT_EQ(sheet.height, 54);
+  EXPECT_EQ(sheet.height, 58);
   EXPECT_EQ(pixel(sheet, 4, 4)[0], 255);  // the first image's corner
   EXPECT_EQ(pixel(sheet, 4, 4)[1], 0);
   EXPECT_EQ(pixel(sheet, 3, 3)[1], 255);  // padding
   // The caption row holds dark text pixels, the third slot's image area stays background.
   std::size_t text = 0;
-  for (int y = 16; y < 25; ++y)
+  for (int y = 16; y < 27; ++y)
     for (int x = 0; x < 28; ++x) text += pixel(sheet, x, y)[0] == o.text_color[0];
   EXPECT_GT(text, 3u);
   EXPECT_EQ(pixel(sheet, 28 + 14, 29 + 8)[1], 255);
+  EXPECT_EQ(pixel(sheet, 28 + 14, 29 + 17)[1], 255);  // no caption under the empty slot
   EXPECT_THROW(contact_sheet({{red, "a"}}, 0), InvalidInput);
   EXPECT_EQ(contact_sheet({}, 3).width, 0);
 }
@@ -352,15 +353,18 @@ TEST(ContactSheet, LaysOutCellsWithCaptions) {
 TEST(Text, GlyphsAreDrawnAndLongCaptionsCut) {
   Image im;
   im.width = 40;
-  im.height = 9;
-  im.rgb.assign(40 * 9 * 3, 255);
+  im.height = 11;
+  im.rgb.assign(40 * 11 * 3, 255);
   draw_text(im, 1, 1, "I", {0, 0, 0});
   // 'I' is a 3-pixel bar on top and bottom and a stem in the middle column.
   EXPECT_EQ(pixel(im, 2, 1)[0], 0);
   EXPECT_EQ(pixel(im, 3, 4)[0], 0);
   EXPECT_EQ(pixel(im, 1, 4)[0], 255);
   EXPECT_EQ(text_width("ab", 2), 22);
-  EXPECT_EQ(text_height(3), 21);
+  EXPECT_EQ(text_height(3), 27);
+  EXPECT_EQ(text_width("\xc3\xa9", 1), 5);  // one UTF-8 character, one glyph
+  draw_text(im, 20, 1, "p", {0, 0, 0});
+  EXPECT_EQ(pixel(im, 20, 9)[0], 0);  // the descender of 'p' below the baseline
   Image cell;
   cell.width = cell.height = 10;
   cell.rgb.assign(300, 0);

@@ -532,9 +532,25 @@ Image read_png(const std::string& path) {
 // ---------------------------------------------------------------------------------------------
 // Text and contact sheets
 
+namespace {
+
+/// The characters drawn for `text`: bytes, except that a UTF-8 sequence is one '?'.
+std::string glyph_chars(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u >= 0x80 && u < 0xc0) continue;  // UTF-8 continuation byte
+    out.push_back(u >= 0x80 ? '?' : c);
+  }
+  return out;
+}
+
+}  // namespace
+
 int text_width(const std::string& text, int scale) {
-  if (text.empty()) return 0;
-  return (static_cast<int>(text.size()) * detail::kGlyphAdvance - 1) * scale;
+  const std::size_t n = glyph_chars(text).size();
+  if (n == 0) return 0;
+  return (static_cast<int>(n) * detail::kGlyphAdvance - 1) * scale;
 }
 
 int text_height(int scale) { return detail::kGlyphHeight * scale; }
@@ -543,8 +559,9 @@ void draw_text(Image& image, int x, int y, const std::string& text,
                const std::array<std::uint8_t, 3>& color, int scale) {
   check_image(image, "draw_text");
   if (scale < 1) throw InvalidInput("draw_text: scale must be at least 1");
-  for (std::size_t i = 0; i < text.size(); ++i) {
-    const std::uint8_t* g = detail::glyph(text[i]);
+  const std::string chars = glyph_chars(text);
+  for (std::size_t i = 0; i < chars.size(); ++i) {
+    const std::uint8_t* g = detail::glyph(chars[i]);
     const int gx = x + static_cast<int>(i) * detail::kGlyphAdvance * scale;
     for (int row = 0; row < detail::kGlyphHeight; ++row)
       for (int col = 0; col < detail::kGlyphWidth; ++col) {
@@ -597,8 +614,10 @@ Image contact_sheet(const std::vector<std::pair<Image, std::string>>& cells, int
       std::copy_n(&img.rgb[static_cast<std::size_t>(y) * img.width * 3], img.width * 3,
                   &sheet.rgb[(static_cast<std::size_t>(y0 + y) * sheet.width + x0) * 3]);
     std::string text = cells[i].second;
-    if (text_width(text, ts) > cell_w - 2) {
-      while (!text.empty() && text_width(text + "..", ts) > cell_w - 2) text.pop_back();
+    const int max_text = cell_w - std::max(2, pad);  // keep neighbouring captions apart
+    if (text_width(text, ts) > max_text) {
+      text = glyph_chars(text);
+      while (!text.empty() && text_width(text + "..", ts) > max_text) text.pop_back();
       text += "..";
     }
     const int tx = static_cast<int>(i % cols) * cell_w + (cell_w - text_width(text, ts)) / 2;

@@ -52,22 +52,11 @@ std::string format_view(const std::array<double, 3>& r) {
 }  // namespace
 
 int cmd_render(const Tokens& tokens) {
-  // "-o X" is the short form of "--output X".
-  Tokens args_in;
-  for (const std::string& t : tokens) {
-    if (t == "-o") {
-      args_in.push_back("--output");
-    } else if (t.rfind("-o=", 0) == 0) {
-      args_in.push_back("--output=" + t.substr(3));
-    } else {
-      args_in.push_back(t);
-    }
-  }
   std::vector<OptionSpec> specs = render_option_specs();
   for (const char* name : {"output", "view", "columns", "caption", "threads"})
     specs.push_back({name, true});
   specs.push_back({"help", false});
-  const ParsedArgs args = parse_args(args_in, specs, "render");
+  const ParsedArgs args = parse_args(tokens, specs, "render");
   if (args.has("help")) {
     std::fputs(kRenderUsage, stdout);
     std::fputs(render_options_help().c_str(), stdout);

@@ -89,7 +89,8 @@ struct ContactSheetOptions {
 /// Lays out `cells` (image, caption) in a grid of `columns` columns, row by row; each image is
 /// centred in a slot as large as the largest image, with its caption centred below it
 /// (embedded 5x7 font, printable ASCII; other characters show as '?'; captions too wide for the
-/// slot are cut and end in ".."). No cells gives an empty (0 x 0) image.
+/// cell are cut and end in ".."). Cell: padding + image + padding / 2 + text_height + padding
+/// high, image + 2 * padding wide. No cells gives an empty (0 x 0) image.
 /// @throws InvalidInput when columns < 1, an option is out of range, or a cell's image is
 ///         inconsistent (rgb size != width * height * 3).
 Image contact_sheet(const std::vector<std::pair<Image, std::string>>& cells, int columns,
@@ -97,11 +98,13 @@ Image contact_sheet(const std::vector<std::pair<Image, std::string>>& cells, int
 
 /// Width in pixels of `text` drawn by draw_text() at `scale`.
 int text_width(const std::string& text, int scale = 1);
-/// Height in pixels of one line of text at `scale` (7 * scale).
+/// Height in pixels of one line of text at `scale`: 9 * scale (7 rows above the baseline, 2
+/// for descenders).
 int text_height(int scale = 1);
 
 /// Draws `text` with its top-left corner at (x, y) in the embedded 5x7 font (one blank column
-/// between glyphs), each font pixel a scale x scale square; clipped to the image.
+/// between glyphs; a UTF-8 sequence or any other non-printable character shows as one '?'),
+/// each font pixel a scale x scale square; clipped to the image.
 void draw_text(Image& image, int x, int y, const std::string& text,
                const std::array<std::uint8_t, 3>& color, int scale = 1);
 
