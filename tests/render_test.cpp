@@ -3,16 +3,20 @@
 
 #include <gtest/gtest.h>
 #include <png.h>
+#include <sys/wait.h>
 #include <tbb/global_control.h>
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <map>
 #include <string>
 #include <utility>
 
 #include "qjulia/error.h"
+#include "qjulia/export.h"
 
 namespace qjulia {
 namespace {
@@ -198,6 +202,23 @@ TEST(Render, VertexColoursAreUsedUnlessDisabled) {
   EXPECT_EQ(pixel(white, 50, 50)[1], pixel(white, 50, 50)[0]);
 }
 
+TEST(Render, InvertedNormalsAndWindingStillLightTheVisibleSide) {
+  const TriMesh sphere = icosphere(4);
+  const RenderOptions o = lambert_on_axis(100);
+  const Image reference = render(sphere, o);
+  TriMesh inverted = sphere;  // inward normals from a file
+  inverted.normals.resize(sphere.positions.size());
+  for (std::size_t v = 0; v < sphere.positions.size(); ++v)
+    for (int k = 0; k < 3; ++k) inverted.normals[v][k] = -sphere.positions[v][k];
+  TriMesh flipped = sphere;  // clockwise faces
+  for (auto& t : flipped.triangles) std::swap(t[1], t[2]);
+  for (const TriMesh* m : {&inverted, &flipped}) {
+    const Image im = render(*m, o);
+    EXPECT_NEAR(pixel(im, 50, 50)[0], pixel(reference, 50, 50)[0], 2);
+    EXPECT_GT(pixel(im, 50, 50)[0], 240);
+  }
+}
+
 TEST(Render, RotationTurnsTheView) {
   // A long box along x: seen unrotated it is wide; rotated 90 degrees about z it is tall.
   TriMesh box;
@@ -370,6 +391,100 @@ TEST(Text, GlyphsAreDrawnAndLongCaptionsCut) {
   cell.rgb.assign(300, 0);
   const Image sheet = contact_sheet({{cell, std::string(50, 'x')}}, 1);
   EXPECT_EQ(sheet.width, 10 + 16);  // a long caption does not widen the sheet
+}
+
+/// Runs the qjulia CLI with `args`; returns its exit code and puts stderr + stdout in `output`.
+int run_cli(const std::string& args, std::string* output = nullptr) {
+  const auto log = std::filesystem::temp_directory_path() / "qjulia_render_cli.log";
+  const std::string cmd = std::string(QJULIA_CLI) + " " + args + " > " + log.string() + " 2>&1";
+  const int status = std::system(cmd.c_str());
+  if (output) {
+    std::ifstream in(log);
+    output->assign(std::istreambuf_iterator<char>(in), {});
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+class RenderCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = std::filesystem::temp_directory_path() / "qjulia_render_cli";
+    std::filesystem::remove_all(dir_);
+    std::filesystem::create_directories(dir_);
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::string path(const std::string& name) const { return (dir_ / name).string(); }
+  std::filesystem::path dir_;
+};
+
+TEST_F(RenderCli, RendersAMeshFileWithTheGivenOptions) {
+  try {
+    write_mesh(path("ball.ply"), icosphere(3));
+  } catch (const std::runtime_error& e) {
+    if (std::string(e.what()).find("not built yet") != std::string::npos)
+      GTEST_SKIP() << "the export stage is not on this branch yet";
+    throw;
+  }
+  std::string out;
+  ASSERT_EQ(run_cli("render " + path("ball.ply") + " -o " + path("ball.png") +
+                        " --size 120x80 --shading lambert --light 0,0,1 --ambient=0 "
+                        "--background 0,0,0 --base-color '#ffffff' --rotate 10,-20,30",
+                    &out),
+            0)
+      << out;
+  const Image im = read_png(path("ball.png"));
+  EXPECT_EQ(im.width, 120);
+  EXPECT_EQ(im.height, 80);
+  // The centre sees the light head on: white; the corner is background.
+  EXPECT_GT(pixel(im, 60, 40)[0], 245);
+  EXPECT_EQ(pixel(im, 0, 0)[0], 0);
+  // Two views make a contact sheet of two cells side by side.
+  ASSERT_EQ(run_cli("render " + path("ball.ply") + " -o " + path("views.png") +
+                        " --size 50 --view 0,0,0 --view 90,0,0 --columns 2",
+                    &out),
+            0)
+      << out;
+  EXPECT_EQ(read_png(path("views.png")).width, 2 * (50 + 16));
+}
+
+TEST_F(RenderCli, ContactSheetOfImagesWithCaptions) {
+  Image cell;
+  cell.width = 30;
+  cell.height = 20;
+  cell.rgb.assign(30 * 20 * 3, 0);
+  write_png(path("a.png"), cell);
+  write_png(path("b.png"), cell);
+  std::string out;
+  ASSERT_EQ(run_cli("render " + path("a.png") + " " + path("b.png") + " " + path("a.png") +
+                        " --columns 3 --caption first -o " + path("sheet.png"),
+                    &out),
+            0)
+      << out;
+  const Image sheet = read_png(path("sheet.png"));
+  EXPECT_EQ(sheet.width, 3 * (30 + 16));
+  EXPECT_EQ(sheet.height, 8 + 20 + 4 + 18 + 8);
+}
+
+TEST_F(RenderCli, BadInputExitsWithCodeTwoAndWritesNothing) {
+  Image cell;
+  cell.width = cell.height = 4;
+  cell.rgb.assign(48, 0);
+  write_png(path("a.png"), cell);
+  std::string out;
+  EXPECT_EQ(run_cli("render " + path("a.png") + " -o " + path("x.jpg"), &out), 2) << out;
+  EXPECT_EQ(run_cli("render " + path("a.png"), &out), 2) << out;
+  EXPECT_EQ(run_cli("render -o " + path("x.png"), &out), 2) << out;
+  EXPECT_EQ(run_cli("render " + path("a.png") + " -o " + path("x.png") + " --shading glossy", &out),
+            2)
+      << out;
+  EXPECT_NE(out.find("--shading"), std::string::npos) << out;
+  EXPECT_EQ(run_cli("render " + path("a.png") + " -o " + path("x.png") + " --size 0x5", &out), 2);
+  EXPECT_EQ(run_cli("render " + path("a.png") + " -o " + path("x.png") + " --background red", &out),
+            2);
+  EXPECT_EQ(run_cli("render " + path("missing.ply") + " -o " + path("x.png"), &out), 2) << out;
+  EXPECT_FALSE(std::filesystem::exists(path("x.png")));
+  EXPECT_EQ(run_cli("render --help", &out), 0);
+  EXPECT_NE(out.find("--shading"), std::string::npos);
 }
 
 }  // namespace

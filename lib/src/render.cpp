@@ -420,6 +420,8 @@ Image render(const TriMesh& mesh, const RenderOptions& opts) {
       n = normalized({wa * na[0] + wb * nb[0] + wc * nc[0], wa * na[1] + wb * nb[1] + wc * nc[1],
                       wa * na[2] + wb * nb[2] + wc * nc[2]});
       if (dot(n, n) == 0) n = face_n;
+      // Normals that disagree with the winding (inverted normals in a file) follow the face.
+      if (dot(n, face_n) < 0) n = {-n[0], -n[1], -n[2]};
     }
     if (back) n = {-n[0], -n[1], -n[2]};  // seen from behind: light the visible side
     Vec3 albedo = opts.color;

@@ -84,6 +84,10 @@ int cmd_render(const Tokens& tokens) {
   }
   if (views.empty()) views.push_back(base.rotate_deg);
 
+  for (const std::string& input : args.positional)
+    if (!std::filesystem::is_regular_file(input))
+      throw InvalidInput("input '" + input + "': no such file");
+
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<std::pair<Image, std::string>> cells;
   std::size_t faces = 0;
