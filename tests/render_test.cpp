@@ -297,8 +297,10 @@ Image read_with_libpng(const std::string& path) {
   }
   png_init_io(png, fp);
   png_read_info(png, info);
-  EXPECT_EQ(png_get_color_type(png, info), PNG_COLOR_TYPE_RGB);
   EXPECT_EQ(png_get_bit_depth(png, info), 8);
+  if (png_get_color_type(png, info) == PNG_COLOR_TYPE_GRAY) png_set_gray_to_rgb(png);
+  png_read_update_info(png, info);
+  EXPECT_EQ(png_get_color_type(png, info), PNG_COLOR_TYPE_RGB);
   im.width = static_cast<int>(png_get_image_width(png, info));
   im.height = static_cast<int>(png_get_image_height(png, info));
   im.rgb.resize(static_cast<std::size_t>(im.width) * im.height * 3);
@@ -326,6 +328,14 @@ TEST(Png, WriteReadRoundTripIsExact) {
   EXPECT_EQ(back.height, im.height);
   EXPECT_EQ(back.rgb, im.rgb);
   EXPECT_EQ(read_png(path).rgb, im.rgb);
+  // An all-grey image is stored as greyscale and reads back as the same RGB bytes.
+  Image grey = im;
+  for (std::size_t i = 0; i < grey.rgb.size(); i += 3)
+    grey.rgb[i + 1] = grey.rgb[i + 2] = grey.rgb[i];
+  write_png(path, grey);
+  EXPECT_EQ(read_with_libpng(path).rgb, grey.rgb);
+  EXPECT_EQ(read_png(path).rgb, grey.rgb);
+  EXPECT_LT(std::filesystem::file_size(path), 37u * 23 * 2);
   // No temporary file is left beside the output.
   int files = 0;
   for (const auto& e : std::filesystem::directory_iterator(dir)) files += e.is_regular_file();

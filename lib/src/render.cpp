@@ -500,13 +500,26 @@ void write_png(const std::string& path, const Image& image) {
   png.version = PNG_IMAGE_VERSION;
   png.width = static_cast<png_uint_32>(image.width);
   png.height = static_cast<png_uint_32>(image.height);
+  // An all-grey image (no vertex colours, grey surface and background) is stored as a
+  // greyscale PNG: the same pixels in about a third of the data.
+  bool grey = true;
+  for (std::size_t i = 0; i < image.rgb.size() && grey; i += 3)
+    grey = image.rgb[i] == image.rgb[i + 1] && image.rgb[i] == image.rgb[i + 2];
+  std::vector<std::uint8_t> grey_pixels;
+  const void* pixels = image.rgb.data();
   png.format = PNG_FORMAT_RGB;
+  if (grey) {
+    grey_pixels.resize(image.rgb.size() / 3);
+    for (std::size_t i = 0; i < grey_pixels.size(); ++i) grey_pixels[i] = image.rgb[3 * i];
+    pixels = grey_pixels.data();
+    png.format = PNG_FORMAT_GRAY;
+  }
   png_alloc_size_t size = 0;
   // First call measures, second encodes (libpng's simplified API, no setjmp needed).
-  if (!png_image_write_to_memory(&png, nullptr, &size, 0, image.rgb.data(), 0, nullptr))
+  if (!png_image_write_to_memory(&png, nullptr, &size, 0, pixels, 0, nullptr))
     throw std::runtime_error("write_png " + path + ": " + png.message);
   std::vector<std::uint8_t> bytes(size);
-  if (!png_image_write_to_memory(&png, bytes.data(), &size, 0, image.rgb.data(), 0, nullptr))
+  if (!png_image_write_to_memory(&png, bytes.data(), &size, 0, pixels, 0, nullptr))
     throw std::runtime_error("write_png " + path + ": " + png.message);
   bytes.resize(size);
   write_file_atomically(path, bytes);

@@ -71,7 +71,9 @@ std::array<double, 3> default_light();
 ///         positions, or normals/colours whose count is neither 0 nor the vertex count.
 Image render(const TriMesh& mesh, const RenderOptions& opts = {});
 
-/// Writes a PNG through a temporary file. @throws std::runtime_error on failure.
+/// Writes a PNG through a temporary file: 8-bit RGB, or 8-bit greyscale when every pixel is grey
+/// (same pixels, smaller file). @throws std::runtime_error on failure; InvalidInput when
+/// image.rgb does not hold width * height * 3 bytes.
 void write_png(const std::string& path, const Image& image);
 
 /// Reads an 8-bit (or any libpng-convertible) PNG as RGB; alpha is composited over white.
