@@ -79,14 +79,16 @@ void validate(const TriMesh& mesh, const RenderOptions& o) {
   require(mesh.colors.empty() || mesh.colors.size() == nv,
           "mesh has " + std::to_string(mesh.colors.size()) + " colours for " + std::to_string(nv) +
               " vertices");
+  // Messages are built only on failure: these loops run over every face and vertex.
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
     for (std::uint32_t v : mesh.triangles[f])
-      require(v < nv, "face " + std::to_string(f) + " refers to vertex " + std::to_string(v) +
-                          " but the mesh has " + std::to_string(nv) + " vertices");
+      if (v >= nv)
+        require(false, "face " + std::to_string(f) + " refers to vertex " + std::to_string(v) +
+                           " but the mesh has " + std::to_string(nv) + " vertices");
   for (std::size_t v = 0; v < nv; ++v) {
     const auto& p = mesh.positions[v];
-    require(std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]),
-            "vertex " + std::to_string(v) + " has a non-finite position");
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      require(false, "vertex " + std::to_string(v) + " has a non-finite position");
   }
 }
 
