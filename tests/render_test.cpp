@@ -17,6 +17,7 @@
 
 #include "qjulia/error.h"
 #include "qjulia/export.h"
+#include "render_args.h"
 
 namespace qjulia {
 namespace {
@@ -495,6 +496,74 @@ TEST_F(RenderCli, BadInputExitsWithCodeTwoAndWritesNothing) {
   EXPECT_FALSE(std::filesystem::exists(path("x.png")));
   EXPECT_EQ(run_cli("render --help", &out), 0);
   EXPECT_NE(out.find("--shading"), std::string::npos);
+}
+
+TEST(RenderArgs, FlagsBecomeOptionsWithAnOptionalPrefix) {
+  using namespace cli;
+  const auto specs = render_option_specs("preview-");
+  const ParsedArgs args = parse_args({"--preview-shading",
+                                      "simple",
+                                      "--preview-light",
+                                      "1,0,0",
+                                      "--preview-light=0,1,0",
+                                      "--preview-rotate",
+                                      "-10,20,-30",
+                                      "--preview-size",
+                                      "640x480",
+                                      "--preview-background",
+                                      "#0a0B0c",
+                                      "--preview-base-color",
+                                      "255,0,51",
+                                      "--preview-ambient",
+                                      "0.3",
+                                      "--preview-no-vertex-colors",
+                                      "--preview-framing",
+                                      "sphere",
+                                      "--preview-supersample",
+                                      "2"},
+                                     specs, "mesh");
+  const RenderOptions o = render_options_from_args(args, "preview-");
+  EXPECT_EQ(o.shading, Shading::kSimple);
+  ASSERT_EQ(o.lights.size(), 2u);
+  EXPECT_EQ(o.lights[1][1], 1.0);
+  EXPECT_EQ(o.rotate_deg[0], -10.0);
+  EXPECT_EQ(o.rotate_deg[2], -30.0);
+  EXPECT_EQ(o.width, 640);
+  EXPECT_EQ(o.height, 480);
+  EXPECT_EQ(o.background, (std::array<std::uint8_t, 3>{10, 11, 12}));
+  EXPECT_DOUBLE_EQ(o.color[0], 1.0);
+  EXPECT_DOUBLE_EQ(o.color[2], 0.2);
+  EXPECT_DOUBLE_EQ(o.ambient, 0.3);
+  EXPECT_FALSE(o.use_vertex_colors);
+  EXPECT_EQ(o.framing, Framing::kSphere);
+  EXPECT_EQ(o.supersample, 2);
+  // Without flags: the library's defaults.
+  const RenderOptions d = render_options_from_args(parse_args({}, specs, "mesh"), "preview-");
+  EXPECT_EQ(d.width, RenderOptions{}.width);
+  EXPECT_EQ(d.shading, RenderOptions{}.shading);
+}
+
+TEST(RenderArgs, BadValuesNameTheFlag) {
+  using namespace cli;
+  auto fails_naming = [](const std::vector<std::string>& tokens, const std::string& flag) {
+    try {
+      render_options_from_args(parse_args(tokens, render_option_specs(), "render"));
+    } catch (const InvalidInput& e) {
+      return std::string(e.what()).find(flag) != std::string::npos;
+    }
+    return false;
+  };
+  EXPECT_TRUE(fails_naming({"--shading", "glossy"}, "--shading"));
+  EXPECT_TRUE(fails_naming({"--size", "12y4"}, "--size"));
+  EXPECT_TRUE(fails_naming({"--size", "0x4"}, "--size"));
+  EXPECT_TRUE(fails_naming({"--background", "#12345"}, "--background"));
+  EXPECT_TRUE(fails_naming({"--background", "256,0,0"}, "--background"));
+  EXPECT_TRUE(fails_naming({"--light", "1,2"}, "--light"));
+  EXPECT_TRUE(fails_naming({"--rotate", "x,0,0"}, "--rotate"));
+  EXPECT_TRUE(fails_naming({"--framing", "tight"}, "--framing"));
+  EXPECT_TRUE(fails_naming({"--supersample", "9"}, "--supersample"));
+  EXPECT_EQ(parse_image_size("300", "s"), std::make_pair(300, 300));
+  EXPECT_EQ(parse_color("#fff", "c"), (std::array<std::uint8_t, 3>{255, 255, 255}));
 }
 
 }  // namespace
