@@ -473,7 +473,14 @@ TEST_F(RenderCli, ContactSheetOfImagesWithCaptions) {
       << out;
   const Image sheet = read_png(path("sheet.png"));
   EXPECT_EQ(sheet.width, 3 * (30 + 16));
-  EXPECT_EQ(sheet.height, 8 + 20 + 4 + 18 + 8);
+  // "first" at double size (58 pixels) would not fit a 30-pixel cell: single-size captions.
+  EXPECT_EQ(sheet.height, 8 + 20 + 4 + 9 + 8);
+  ASSERT_EQ(run_cli("render " + path("a.png") + " " + path("b.png") + " --caption ab -o " +
+                        path("sheet2.png"),
+                    &out),
+            0)
+      << out;
+  EXPECT_EQ(read_png(path("sheet2.png")).height, 8 + 20 + 4 + 18 + 8);  // "ab" fits: double
 }
 
 TEST_F(RenderCli, BadInputExitsWithCodeTwoAndWritesNothing) {

@@ -1,6 +1,7 @@
 // qjulia render: preview images of meshes, and contact sheets of several meshes or views.
 #include <tbb/global_control.h>
 
+#include <algorithm>
 #include <cctype>
 #include <chrono>
 #include <cmath>
@@ -123,6 +124,11 @@ int cmd_render(const Tokens& tokens) {
     }
     ContactSheetOptions sheet;
     sheet.background = base.background;
+    // Captions at double size when they all fit their cells, else at the font's own size.
+    int cell_width = 0;
+    for (const auto& cell : cells) cell_width = std::max(cell_width, cell.first.width);
+    for (const auto& cell : cells)
+      if (text_width(cell.second, 2) > cell_width + sheet.padding) sheet.text_scale = 1;
     const double luma =
         0.3 * base.background[0] + 0.59 * base.background[1] + 0.11 * base.background[2];
     if (luma < 128) sheet.text_color = {230, 230, 230};  // light text on a dark sheet
