@@ -31,7 +31,8 @@ enum class Shading { kSimple, kLambert, kPhong };
 /// How the object is fitted into the image.
 enum class Framing {
   kBox,     ///< the bounding box of the rotated, projected mesh fills the image (tight)
-  kSphere,  ///< the bounding sphere fills the image: same scale for every rotation
+  kSphere,  ///< the sphere about the bounding-box centre through the farthest vertex fills the
+            ///< image: the same scale for every rotation
 };
 
 /// Options of render().
