@@ -94,6 +94,9 @@ class Values {
   openvdb::FloatGrid::ConstAccessor acc_;
 };
 
+// Vertices keep this fraction of an edge away from its ends.
+constexpr double kEndMargin = 1e-3;
+
 struct Vec3 {
   double x, y, z;
 };
@@ -119,7 +122,7 @@ Vec3 refine(const Solid& solid, const Vec3& a, float fa, const Vec3& b, float fb
       (solid.constraint(p.x, p.y, p.z) > 0 ? ch : cl) = m;
     }
     const double tc = a_inside ? cl : 1 - cl;
-    const Vec3 pc = at(tc);
+    const Vec3 pc = at(std::clamp(tc, kEndMargin, 1 - kEndMargin));
     ++*evaluations;
     const float fc = solid.field(pc.x, pc.y, pc.z);
     if (fc <= 0) return pc;
@@ -132,11 +135,14 @@ Vec3 refine(const Solid& solid, const Vec3& a, float fa, const Vec3& b, float fb
       flo = fc;
     }
   }
-  int side = 0;
+  // False position, with a bisection step whenever the last step did not halve the bracket:
+  // fast where the field is smooth, never slower than bisection where it is steep (h^2 has
+  // F = 2^N log|h| inside).
+  bool bisect = false;
   for (int step = 0; step < max_steps && hi - lo > tol_t; ++step) {
-    double t = (flo * hi - fhi * lo) / (flo - fhi);
-    // Keep the guess strictly inside the bracket and away from its ends.
-    const double margin = 0.02 * (hi - lo);
+    const double width = hi - lo;
+    double t = bisect ? 0.5 * (lo + hi) : (flo * hi - fhi * lo) / (flo - fhi);
+    const double margin = 0.01 * width;
     if (!(t > lo + margin && t < hi - margin)) t = std::clamp(t, lo + margin, hi - margin);
     const Vec3 p = at(t);
     ++*evaluations;
@@ -144,18 +150,17 @@ Vec3 refine(const Solid& solid, const Vec3& a, float fa, const Vec3& b, float fb
     if ((f <= 0) == (flo <= 0)) {
       lo = t;
       flo = f;
-      if (side == -1) fhi *= 0.5f;  // Illinois: halve the stale end's value
-      side = -1;
     } else {
       hi = t;
       fhi = f;
-      if (side == 1) flo *= 0.5f;
-      side = 1;
     }
+    bisect = bisect || hi - lo > 0.5 * width;  // once steep, stay with bisection
   }
   double t = (flo * hi - fhi * lo) / (flo - fhi);
   if (!(t >= lo && t <= hi)) t = 0.5 * (lo + hi);
-  return at(t);
+  // Never on a grid point: a vertex there would coincide with the vertices of the other edges
+  // of that point and leave zero-area triangles.
+  return at(std::clamp(t, kEndMargin, 1 - kEndMargin));
 }
 
 // A colour ramp over [0, 1] (dark blue, teal, yellow), linear RGB.

@@ -10,6 +10,8 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <limits>
 #include <mutex>
 #include <stdexcept>
 
@@ -23,6 +25,10 @@ namespace {
 using detail::pack;
 using detail::unpack;
 using openvdb::Coord;
+
+// A cell is refined when its sampled values do not change sign but their smallest magnitude is
+// below kRoughness times their spread: the field may cross zero between the samples.
+constexpr float kRoughness = 1.0f;
 
 // Adds point (i, j, k) unless it lies below the grid (such points are outside the box and never
 // evaluated).
@@ -56,28 +62,29 @@ class Sampler {
 
   // Evaluates every non-virtual point of `keys` not yet in the grid; keys are sorted/unique.
   void evaluate(std::vector<std::uint64_t>& keys) {
-    {
-      auto acc = grid_->getConstAccessor();
-      float v;
-      keys.erase(std::remove_if(keys.begin(), keys.end(),
-                                [&](std::uint64_t key) {
-                                  const Coord c = unpack(key);
-                                  return is_virtual(c.x(), c.y(), c.z(), &v) || acc.isValueOn(c);
-                                }),
-                 keys.end());
-    }
+    // Mark what needs evaluating (in parallel: the grid is only read here).
     std::vector<float> values(keys.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, keys.size(), 256),
+    std::vector<char> todo(keys.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, keys.size(), 1024),
                       [&](const tbb::blocked_range<std::size_t>& r) {
+                        auto acc = grid_->getConstAccessor();
                         for (std::size_t n = r.begin(); n != r.end(); ++n) {
                           const Coord c = unpack(keys[n]);
+                          float v;
+                          if (is_virtual(c.x(), c.y(), c.z(), &v) || acc.isValueOn(c)) continue;
+                          todo[n] = 1;
                           const auto p = position(c.x(), c.y(), c.z());
                           values[n] = solid_.field(p[0], p[1], p[2]);
                         }
                       });
     auto acc = grid_->getAccessor();
-    for (std::size_t n = 0; n < keys.size(); ++n) acc.setValueOn(unpack(keys[n]), values[n]);
-    evaluations_ += keys.size();
+    std::size_t count = 0;
+    for (std::size_t n = 0; n < keys.size(); ++n)
+      if (todo[n]) {
+        acc.setValueOn(unpack(keys[n]), values[n]);
+        ++count;
+      }
+    evaluations_ += count;
   }
 
   // The value at a point that was evaluated (or is virtual).
@@ -142,7 +149,7 @@ class Sampler {
       children.erase(std::unique(children.begin(), children.end()), children.end());
       s = half;
       cells = flag(children, s, false);
-      if (s > 1 && s >= 4) cells = dilate(cells);
+      if (s >= 4) cells = dilate(cells);
       report(0.1 + 0.8 * (1.0 - std::log2(s) / std::log2(opts_.coarse_block)));
     }
     // 3. Close the surface: a crossing voxel whose face has a sign change continues into the
@@ -154,30 +161,38 @@ class Sampler {
   // coarse level) differ in sign, or a corner is near zero.
   std::vector<std::uint64_t> flag(const std::vector<std::uint64_t>& cells, int s, bool coarse) {
     std::vector<char> keep(cells.size(), 0);
-    const float near = coarse ? 1.0f : 0.0f;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 1024),
                       [&](const tbb::blocked_range<std::size_t>& r) {
                         auto acc = grid_->getConstAccessor();
                         for (std::size_t n = r.begin(); n != r.end(); ++n) {
                           const Coord c = unpack(cells[n]);
                           int inside = 0, total = 0;
-                          bool is_near = false;
-                          for (int d = 0; d < 8; ++d) {
-                            const float v = value(acc, (c.x() + (d & 1)) * s,
-                                                  (c.y() + ((d >> 1) & 1)) * s,
-                                                  (c.z() + (d >> 2)) * s);
+                          // Range of the sampled (not virtual) values.
+                          float lo = std::numeric_limits<float>::max(), hi = -lo;
+                          auto visit = [&](int i, int j, int k) {
+                            float v;
+                            const bool virt = is_virtual(i, j, k, &v);
+                            if (!virt) {
+                              v = acc.getValue(Coord(i, j, k));
+                              lo = std::min(lo, v);
+                              hi = std::max(hi, v);
+                            }
                             inside += v <= 0;
                             ++total;
-                            is_near = is_near || std::abs(v) < near;
+                          };
+                          for (int d = 0; d < 8; ++d)
+                            visit((c.x() + (d & 1)) * s, (c.y() + ((d >> 1) & 1)) * s,
+                                  (c.z() + (d >> 2)) * s);
+                          if (coarse) visit(c.x() * s + s / 2, c.y() * s + s / 2, c.z() * s + s / 2);
+                          bool rough = false;
+                          if (s > 1 && lo <= hi) {
+                            // The field may reach zero inside the cell when it varies across the
+                            // cell by more than its smallest magnitude (a thin feature between
+                            // samples), or is close to zero anyway.
+                            const float m = lo > 0 ? lo : -hi;
+                            rough = m < kRoughness * (hi - lo);
                           }
-                          if (coarse) {
-                            const float v = value(acc, c.x() * s + s / 2, c.y() * s + s / 2,
-                                                  c.z() * s + s / 2);
-                            inside += v <= 0;
-                            ++total;
-                            is_near = is_near || std::abs(v) < near;
-                          }
-                          keep[n] = (inside != 0 && inside != total) || is_near;
+                          keep[n] = (inside != 0 && inside != total) || rough;
                         }
                       });
     std::vector<std::uint64_t> out;
@@ -366,9 +381,11 @@ GridGeometry grid_geometry(const Params& params) {
   for (int a = 0; a < 3; ++a) longest = std::max(longest, params.bounds.max[a] - params.bounds.min[a]);
   g.voxel = longest / params.resolution;
   for (int a = 0; a < 3; ++a) {
-    g.origin[a] = params.bounds.min[a];
+    // Points sit at the centres of the voxels, so no point lies on a wall of the box and caps
+    // never pass through grid points.
+    g.origin[a] = params.bounds.min[a] + 0.5 * g.voxel;
     const double cells = (params.bounds.max[a] - params.bounds.min[a]) / g.voxel;
-    g.points[a] = static_cast<int>(std::ceil(cells - 1e-9)) + 1;
+    g.points[a] = static_cast<int>(std::floor(cells - 0.5 + 1e-9)) + 1;
   }
   return g;
 }
