@@ -27,7 +27,8 @@ class StageTimer {
     return [this, stage](double f) { return !progress_ || progress_(stage, f); };
   }
   void stop() {
-    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin_).count();
+    const double s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - begin_).count();
     stats_.timings.emplace_back(stage_, s);
   }
 

@@ -49,7 +49,9 @@ class Sampler {
     grid_ = openvdb::FloatGrid::create(background());
   }
 
-  float background() const { return static_cast<float>(solid_.classifier().params().iterations + 1); }
+  float background() const {
+    return static_cast<float>(solid_.classifier().params().iterations + 1);
+  }
 
   std::array<double, 3> position(int i, int j, int k) const {
     return {geo_.origin[0] + i * geo_.voxel, geo_.origin[1] + j * geo_.voxel,
@@ -140,7 +142,8 @@ class Sampler {
             for (int dk = 0; dk <= 2; ++dk)
               push_point(keys, c.x() * s + di * half, c.y() * s + dj * half, c.z() * s + dk * half);
         for (int d = 0; d < 8; ++d)
-          push_cell(children, 2 * c.x() + (d & 1), 2 * c.y() + ((d >> 1) & 1), 2 * c.z() + (d >> 2));
+          push_cell(children, 2 * c.x() + (d & 1), 2 * c.y() + ((d >> 1) & 1),
+                    2 * c.z() + (d >> 2));
       }
       tbb::parallel_sort(keys.begin(), keys.end());
       keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
@@ -183,7 +186,8 @@ class Sampler {
                           for (int d = 0; d < 8; ++d)
                             visit((c.x() + (d & 1)) * s, (c.y() + ((d >> 1) & 1)) * s,
                                   (c.z() + (d >> 2)) * s);
-                          if (coarse) visit(c.x() * s + s / 2, c.y() * s + s / 2, c.z() * s + s / 2);
+                          if (coarse)
+                            visit(c.x() * s + s / 2, c.y() * s + s / 2, c.z() * s + s / 2);
                           bool rough = false;
                           if (s > 1 && lo <= hi) {
                             // The field may reach zero inside the cell when it varies across the
@@ -227,7 +231,8 @@ class Sampler {
       std::vector<std::uint64_t> keys;
       for (std::uint64_t key : frontier) {
         const Coord c = unpack(key);
-        for (int d = 0; d < 8; ++d) push_point(keys, c.x() + (d & 1), c.y() + ((d >> 1) & 1), c.z() + (d >> 2));
+        for (int d = 0; d < 8; ++d)
+          push_point(keys, c.x() + (d & 1), c.y() + ((d >> 1) & 1), c.z() + (d >> 2));
       }
       tbb::parallel_sort(keys.begin(), keys.end());
       keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
@@ -299,7 +304,8 @@ class Sampler {
         for (int j = 0; j < pts[1]; ++j)
           for (int k = 0; k < pts[2]; ++k)
             if (!is_virtual(i, j, k, &v)) {
-              acc.setValueOn(Coord(i, j, k), dense[i * plane + static_cast<std::size_t>(j) * pts[2] + k]);
+              acc.setValueOn(Coord(i, j, k),
+                             dense[i * plane + static_cast<std::size_t>(j) * pts[2] + k]);
               ++count;
             }
     }
@@ -334,11 +340,13 @@ class Sampler {
           if (std::binary_search(top_cells_.begin(), top_cells_.end(), pack(i, j, k))) continue;
           bool inside = true;
           for (int d = 0; d < 8 && inside; ++d)
-            inside = value(acc, (i + (d & 1)) * s, (j + ((d >> 1) & 1)) * s, (k + (d >> 2)) * s) <= 0;
+            inside =
+                value(acc, (i + (d & 1)) * s, (j + ((d >> 1) & 1)) * s, (k + (d >> 2)) * s) <= 0;
           if (inside)
-            tiles->tree().fill(openvdb::CoordBBox(Coord(i * s, j * s, k * s),
-                                                  Coord(i * s + s - 1, j * s + s - 1, k * s + s - 1)),
-                               -background(), false);
+            tiles->tree().fill(
+                openvdb::CoordBBox(Coord(i * s, j * s, k * s),
+                                   Coord(i * s + s - 1, j * s + s - 1, k * s + s - 1)),
+                -background(), false);
         }
     openvdb::tools::compReplace(*tiles, *grid_);
     grid_ = tiles;
@@ -353,10 +361,12 @@ class Sampler {
     impl.grid = grid_;
     impl.grid->setName("F");
     impl.grid->setTransform(openvdb::math::Transform::createLinearTransform(geo_.voxel));
-    impl.grid->transform().postTranslate(openvdb::Vec3d(geo_.origin[0], geo_.origin[1], geo_.origin[2]));
+    impl.grid->transform().postTranslate(
+        openvdb::Vec3d(geo_.origin[0], geo_.origin[1], geo_.origin[2]));
     impl.crossing = std::move(crossing_);
     impl.evaluations = evaluations_;
-    impl.dense_evaluations = static_cast<std::uint64_t>(geo_.points[0]) * geo_.points[1] * geo_.points[2];
+    impl.dense_evaluations =
+        static_cast<std::uint64_t>(geo_.points[0]) * geo_.points[1] * geo_.points[2];
     report(1.0);
     return out;
   }
@@ -378,7 +388,8 @@ std::once_flag g_openvdb_init;
 GridGeometry grid_geometry(const Params& params) {
   GridGeometry g;
   double longest = 0;
-  for (int a = 0; a < 3; ++a) longest = std::max(longest, params.bounds.max[a] - params.bounds.min[a]);
+  for (int a = 0; a < 3; ++a)
+    longest = std::max(longest, params.bounds.max[a] - params.bounds.min[a]);
   g.voxel = longest / params.resolution;
   for (int a = 0; a < 3; ++a) {
     // Points sit at the centres of the voxels, so no point lies on a wall of the box and caps

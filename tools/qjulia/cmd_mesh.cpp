@@ -16,7 +16,8 @@
 namespace qjulia::cli {
 namespace {
 
-constexpr const char* kHelp = R"help(usage: qjulia mesh [PARAMS.json] [options] -o OUT.(glb|gltf|obj|ply|stl|3mf)
+constexpr const char* kHelp =
+    R"help(usage: qjulia mesh [PARAMS.json] [options] -o OUT.(glb|gltf|obj|ply|stl|3mf)
 
 Meshes the solid of a quaternionic Julia set. Without parameters: the Newton cubic
 (2h^3+1)/(3h^2) with the cut-off method (preset newton-cubic).

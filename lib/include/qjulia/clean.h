@@ -10,6 +10,11 @@
 
 namespace qjulia {
 
+/// The default dust threshold in voxels^3 (when CleanOptions::voxel_size is set and
+/// min_component_volume is not): components smaller than two voxels are specks supported by
+/// one or two grid samples, i.e. below the sampling resolution.
+constexpr double kDefaultDustVoxels = 2.0;
+
 /// Options of clean().
 struct CleanOptions {
   /// Remove components whose |volume| is below this (model units^3). Unset: a default that
@@ -27,14 +32,17 @@ struct CleanReport {
   std::size_t removed_components = 0;
   std::size_t removed_faces = 0;
   std::size_t merged_vertices = 0;
-  std::size_t degenerate_faces_removed = 0;
-  double min_component_volume = 0.0;  ///< the threshold used
+  std::size_t degenerate_faces_removed = 0;  ///< repeated-index faces, fins, collapsed needles
+  std::size_t degenerate_faces_flipped = 0;  ///< zero-area caps fixed by an edge flip
+  double min_component_volume = 0.0;         ///< the threshold used
 };
 
 /// Cleans `mesh`. Closed, manifold, outward input stays so.
 TriMesh clean(const TriMesh& mesh, const CleanOptions& opts = {}, CleanReport* report = nullptr);
 
-/// Counts pairs of intersecting faces that share no vertex (CGAL). Slow on millions of faces.
+/// Counts pairs of faces that intersect other than in their shared vertices or edge
+/// (CGAL::Polygon_mesh_processing::self_intersections, multi-threaded). Faces that a halfedge
+/// mesh cannot hold (non-manifold) are skipped. Slow: ~5 CPU-seconds for 1.3M faces.
 std::size_t count_self_intersections(const TriMesh& mesh);
 
 }  // namespace qjulia

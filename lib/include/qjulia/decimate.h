@@ -20,8 +20,10 @@ struct DecimateOptions {
 struct DecimateReport {
   std::size_t faces_before = 0;
   std::size_t faces_after = 0;
-  double hausdorff = 0.0;   ///< two-sided distance between input and output, model units
+  double hausdorff = 0.0;      ///< two-sided distance between input and output, model units
   bool target_reached = true;  ///< false when the budget could not be met within the bound
+  bool closed = true;    ///< the result has no boundary or non-manifold edge (as a closed input)
+  bool manifold = true;  ///< the result has no non-manifold edge or vertex and is oriented
 };
 
 /// Decimates `mesh`. @throws InvalidInput when neither bound is set or a bound is not positive.

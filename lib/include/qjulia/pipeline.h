@@ -40,14 +40,14 @@ struct RunStats {
   std::uint64_t crossing_cells = 0;
   double voxel_size = 0;
   std::array<int, 3> grid_points{0, 0, 0};
-  MeshMeasure measure;                  ///< of the final mesh
+  MeshMeasure measure;                                  ///< of the final mesh
   std::vector<std::pair<std::string, double>> timings;  ///< seconds per stage, in order
   std::size_t peak_rss_bytes = 0;
   std::optional<CleanReport> clean;
   std::optional<DecimateReport> decimate;
   std::optional<std::size_t> self_intersections;
-  double scale = 1.0;                   ///< factor applied by print.size_mm
-  std::string unit;                     ///< "mm" when scaled for printing
+  double scale = 1.0;  ///< factor applied by print.size_mm
+  std::string unit;    ///< "mm" when scaled for printing
 };
 
 /// The result of run_pipeline().

@@ -16,7 +16,7 @@ namespace qjulia {
 /// box lie half a voxel beyond the outermost points.
 struct GridGeometry {
   std::array<double, 3> origin{0, 0, 0};  ///< bounds.min + voxel / 2
-  double voxel = 1.0;               ///< longest side of the box / resolution
+  double voxel = 1.0;                     ///< longest side of the box / resolution
   std::array<int, 3> points{0, 0, 0};
 };
 
@@ -33,8 +33,8 @@ struct SampleOptions {
   ProgressFn progress;
 };
 
-/// The sampled field on the points of grid_geometry(params). Evaluated points hold F; uniform regions are inactive
-/// tiles whose value has the right sign.
+/// The sampled field on the points of grid_geometry(params). Evaluated points hold F; uniform
+/// regions are inactive tiles whose value has the right sign.
 class SampledGrid {
  public:
   SampledGrid();

@@ -1,0 +1,153 @@
+// Tests of decimate(): face budget, error bound (checked independently), topology.
+#include "qjulia/decimate.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "clean_fixtures.h"
+#include "qjulia/error.h"
+
+using qjulia::TriMesh;
+
+namespace {
+
+using P = std::array<double, 3>;
+P at(const TriMesh& m, uint32_t v) {
+  return {m.positions[v][0], m.positions[v][1], m.positions[v][2]};
+}
+P sub(P a, P b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+double dot(P a, P b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+P cross(P a, P b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
+
+double point_segment(P p, P a, P b) {
+  P ab = sub(b, a);
+  double t = std::clamp(dot(sub(p, a), ab) / std::max(dot(ab, ab), 1e-300), 0.0, 1.0);
+  P q = {a[0] + t * ab[0] - p[0], a[1] + t * ab[1] - p[1], a[2] + t * ab[2] - p[2]};
+  return std::sqrt(dot(q, q));
+}
+
+/// Distance from p to triangle abc: the plane distance when the projection falls inside,
+/// else the nearest edge.
+double point_triangle(P p, P a, P b, P c) {
+  P n = cross(sub(b, a), sub(c, a));
+  double nn = dot(n, n);
+  if (nn > 0) {
+    double d = dot(sub(p, a), n) / nn;
+    P q = {p[0] - d * n[0], p[1] - d * n[1], p[2] - d * n[2]};
+    bool inside = dot(cross(sub(b, a), sub(q, a)), n) >= 0 &&
+                  dot(cross(sub(c, b), sub(q, b)), n) >= 0 &&
+                  dot(cross(sub(a, c), sub(q, c)), n) >= 0;
+    if (inside) return std::abs(d) * std::sqrt(nn);
+  }
+  return std::min({point_segment(p, a, b), point_segment(p, b, c), point_segment(p, c, a)});
+}
+
+/// Brute-force distance from p to a (small) mesh.
+double point_mesh(P p, const TriMesh& m) {
+  double best = 1e300;
+  for (const auto& t : m.triangles)
+    best = std::min(best, point_triangle(p, at(m, t[0]), at(m, t[1]), at(m, t[2])));
+  return best;
+}
+
+/// Max over dense samples of the output's faces of the distance to the unit sphere.
+double max_distance_to_unit_sphere(const TriMesh& m, int n = 12) {
+  double worst = 0;
+  for (const auto& t : m.triangles) {
+    P a = at(m, t[0]), b = at(m, t[1]), c = at(m, t[2]);
+    for (int i = 0; i <= n; ++i)
+      for (int j = 0; i + j <= n; ++j) {
+        double u = double(i) / n, v = double(j) / n, w = 1 - u - v;
+        P q = {w * a[0] + u * b[0] + v * c[0], w * a[1] + u * b[1] + v * c[1],
+               w * a[2] + u * b[2] + v * c[2]};
+        worst = std::max(worst, std::abs(std::sqrt(dot(q, q)) - 1.0));
+      }
+  }
+  return worst;
+}
+
+}  // namespace
+
+TEST(Decimate, UnitSphereTo2000FacesStaysClosedManifoldAndOnTheSphere) {
+  TriMesh sphere = fixtures::uv_sphere(256, 256);  // 130,560 faces
+  ASSERT_EQ(sphere.face_count(), 130560u);
+  qjulia::DecimateOptions opts;
+  opts.faces = 2000;
+  qjulia::DecimateReport rep;
+  TriMesh out = qjulia::decimate(sphere, opts, &rep);
+  EXPECT_GE(out.face_count(), 1000u);
+  EXPECT_LE(out.face_count(), 2000u);
+  EXPECT_EQ(rep.faces_before, sphere.face_count());
+  EXPECT_EQ(rep.faces_after, out.face_count());
+  EXPECT_TRUE(rep.target_reached);
+  auto topo = fixtures::check(out);
+  EXPECT_TRUE(topo.closed_manifold_oriented);
+  EXPECT_EQ(topo.euler, 2);
+  for (const auto& p : out.positions)
+    EXPECT_NEAR(std::sqrt(double(p[0]) * p[0] + double(p[1]) * p[1] + double(p[2]) * p[2]), 1.0,
+                0.02);
+  EXPECT_GT(fixtures::volume(out), 0.95 * fixtures::volume(sphere));
+  // The reported distance agrees with an independent dense measure to the sphere (the input is
+  // within 1e-4 of it).
+  const double to_sphere = max_distance_to_unit_sphere(out);
+  EXPECT_GT(rep.hausdorff, 0.0);
+  EXPECT_NEAR(rep.hausdorff, to_sphere, 0.25 * to_sphere + 2e-4);
+}
+
+TEST(Decimate, MaxErrorBoundHoldsByIndependentDenseSampling) {
+  TriMesh sphere = fixtures::uv_sphere(200, 200);  // chord error ~1.2e-4
+  const double input_error = 1.0 - std::cos(std::acos(-1.0) / 200);
+  qjulia::DecimateOptions opts;
+  opts.max_error = 0.004;
+  qjulia::DecimateReport rep;
+  TriMesh out = qjulia::decimate(sphere, opts, &rep);
+  EXPECT_LT(out.face_count(), sphere.face_count() / 10);  // it did simplify
+  EXPECT_TRUE(fixtures::check(out).closed_manifold_oriented);
+  EXPECT_LE(rep.hausdorff, *opts.max_error);
+  EXPECT_TRUE(rep.target_reached);
+  // Output -> input: dense samples of the output faces against the sphere the input lies on.
+  EXPECT_LE(max_distance_to_unit_sphere(out), *opts.max_error - input_error);
+  // Input -> output: every 7th input vertex, brute force against the output.
+  double worst = 0;
+  for (std::size_t v = 0; v < sphere.positions.size(); v += 7)
+    worst = std::max(worst, point_mesh(at(sphere, uint32_t(v)), out));
+  EXPECT_LE(worst, *opts.max_error);
+}
+
+TEST(Decimate, BumpyMillionFaceMeshTakesTheChunkedPathAndStaysClosed) {
+  TriMesh bumpy = fixtures::noisy_sphere(8);  // 1,310,720 faces: split into chunks
+  qjulia::DecimateOptions opts;
+  opts.faces = 100000;
+  qjulia::DecimateReport rep;
+  TriMesh out = qjulia::decimate(bumpy, opts, &rep);
+  EXPECT_LE(out.face_count(), 100000u);
+  EXPECT_GE(out.face_count(), 90000u);
+  auto topo = fixtures::check(out);
+  EXPECT_TRUE(topo.closed_manifold_oriented);
+  EXPECT_EQ(topo.euler, 2);
+  EXPECT_NEAR(fixtures::volume(out), fixtures::volume(bumpy), 0.01 * fixtures::volume(bumpy));
+  EXPECT_LT(rep.hausdorff, 0.02);
+}
+
+TEST(Decimate, BudgetAboveTheFaceCountReturnsTheInput) {
+  TriMesh sphere = fixtures::icosphere(2);
+  qjulia::DecimateOptions opts;
+  opts.faces = 1000000;
+  TriMesh out = qjulia::decimate(sphere, opts);
+  EXPECT_EQ(out.face_count(), sphere.face_count());
+}
+
+TEST(Decimate, RejectsMissingOrNonPositiveBounds) {
+  TriMesh sphere = fixtures::icosphere(2);
+  EXPECT_THROW(qjulia::decimate(sphere, {}), qjulia::InvalidInput);
+  qjulia::DecimateOptions opts;
+  opts.faces = 0;
+  EXPECT_THROW(qjulia::decimate(sphere, opts), qjulia::InvalidInput);
+  opts.faces.reset();
+  opts.max_error = -1.0;
+  EXPECT_THROW(qjulia::decimate(sphere, opts), qjulia::InvalidInput);
+}
