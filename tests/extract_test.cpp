@@ -1,2 +1,311 @@
+#include "qjulia/extract.h"
+
 #include <gtest/gtest.h>
-TEST(Placeholder, extractTestsComeWithTheStage) { SUCCEED(); }
+
+#include <cmath>
+#include <complex>
+
+#include "qjulia/classify.h"
+#include "qjulia/pipeline.h"
+#include "qjulia/sample.h"
+
+namespace qjulia {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+struct Meshed {
+  TriMesh mesh;
+  MeshMeasure measure;
+  double voxel = 0;
+  std::uint64_t evaluations = 0, dense_evaluations = 0;
+};
+
+Meshed mesh_of(const Params& p, bool dense = false) {
+  SampleOptions so;
+  so.dense = dense;
+  const SampledGrid grid = sample(p, so);
+  ExtractStats es;
+  Meshed out;
+  out.mesh = extract(grid, p, {}, &es);
+  out.measure = measure(out.mesh);
+  out.voxel = grid.voxel_size();
+  out.evaluations = grid.evaluations() + es.evaluations;
+  out.dense_evaluations = grid.dense_evaluations();
+  return out;
+}
+
+void expect_watertight(const MeshMeasure& m) {
+  EXPECT_GT(m.faces, 0u);
+  EXPECT_TRUE(m.closed) << m.boundary_edges << " boundary, " << m.nonmanifold_edges
+                        << " non-manifold edges";
+  EXPECT_TRUE(m.manifold) << m.nonmanifold_vertices << " non-manifold vertices";
+  EXPECT_TRUE(m.oriented) << m.misoriented_edges << " misoriented edges";
+  EXPECT_GT(m.volume, 0);
+}
+
+TEST(Extract, UnitBallIsClosedAndHasTheRightVolumeAreaAndRadius) {
+  Params p = preset("unit-ball");
+  p.resolution = 128;
+  p.bounds = {{-1.5, -1.5, -1.5}, {1.5, 1.5, 1.5}};
+  const Meshed m = mesh_of(p);
+  expect_watertight(m.measure);
+  EXPECT_NEAR(m.measure.volume, 4.0 / 3.0 * kPi, 0.003 * 4.0 / 3.0 * kPi);
+  EXPECT_NEAR(m.measure.area, 4.0 * kPi, 0.01 * 4.0 * kPi);
+  double worst = 0;
+  for (const auto& v : m.mesh.positions)
+    worst = std::max(
+        worst,
+        std::abs(std::sqrt(double(v[0]) * v[0] + double(v[1]) * v[1] + double(v[2]) * v[2]) - 1.0));
+  EXPECT_LT(worst, 0.05 * m.voxel);
+  EXPECT_EQ(m.measure.components.size(), 1u);
+  EXPECT_EQ(m.measure.components[0].genus, 0);
+}
+
+TEST(Extract, BoxWallsCloseASolidThatFillsTheBoxWithFlatCaps) {
+  // h^2 with R = 1 in a box inside the ball: the solid is the whole box. Marching cubes
+  // chamfers the box's edges (at most h/2 by h/2) but the caps lie exactly on the walls.
+  Params p = preset("unit-ball");
+  p.resolution = 16;
+  p.bounds = {{-0.5, -0.4, -0.3}, {0.5, 0.4, 0.3}};
+  const Meshed m = mesh_of(p);
+  expect_watertight(m.measure);
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(m.measure.bbox_min[a], p.bounds.min[a], 1e-6);
+    EXPECT_NEAR(m.measure.bbox_max[a], p.bounds.max[a], 1e-6);
+  }
+  const double h = m.voxel, edges = 4 * (1.0 + 0.8 + 0.6);
+  EXPECT_LE(m.measure.volume, 0.48 + 1e-9);
+  EXPECT_GE(m.measure.volume, 0.48 - edges * h * h / 8 - 8 * h * h * h);
+}
+
+TEST(Extract, ClipPlaneGivesAFlatCapAndKeepsTheSolidClosed) {
+  Params p = preset("unit-ball");
+  p.resolution = 128;
+  p.mesh.clip.push_back({{0, 0, 1}, 0.25});
+  const Meshed m = mesh_of(p);
+  expect_watertight(m.measure);
+  double top = -1;
+  for (const auto& v : m.mesh.positions) top = std::max(top, double(v[2]));
+  EXPECT_NEAR(top, 0.25, 1e-6);
+  // A ball cut at height a keeps pi (2/3 + a - a^3/3); marching cubes loses a little at the
+  // sphere (inscribed) and at the rim of the cap (chamfered).
+  const double a = 0.25;
+  EXPECT_NEAR(m.measure.volume, kPi * (2.0 / 3.0 + a - a * a * a / 3.0), 0.005);
+  std::size_t on_cap = 0;
+  for (const auto& v : m.mesh.positions) on_cap += std::abs(v[2] - 0.25) < 1e-6;
+  EXPECT_GT(on_cap, 100u);
+}
+
+// Components of at least `min_volume`, as (faces, volume), largest first.
+std::vector<std::pair<std::size_t, double>> big_components(const MeshMeasure& m,
+                                                           double min_volume) {
+  std::vector<std::pair<std::size_t, double>> out;
+  for (const auto& c : m.components)
+    if (std::abs(c.volume) >= min_volume) out.emplace_back(c.faces, c.volume);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+TEST(Extract, SparseAndDenseSamplingGiveTheSameSurfaceOnEveryPreset) {
+  // The same surface: every component of more than two voxels of volume is identical (sub-voxel
+  // specks between coarse samples are what the clean stage removes as dust).
+  for (const std::string& name : preset_names()) {
+    SCOPED_TRACE(name);
+    Params p = preset(name);
+    p.resolution = 96;
+    const Meshed sparse = mesh_of(p, false), dense = mesh_of(p, true);
+    expect_watertight(sparse.measure);
+    EXPECT_LT(sparse.evaluations, dense.evaluations);
+    const double speck = 2 * std::pow(dense.voxel, 3);
+    const auto a = big_components(sparse.measure, speck), b = big_components(dense.measure, speck);
+    ASSERT_EQ(a.size(), b.size());
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      EXPECT_EQ(a[i].first, b[i].first);
+      EXPECT_NEAR(a[i].second, b[i].second, 1e-9 * std::abs(b[i].second));
+    }
+  }
+}
+
+TEST(Extract, UnitBallAt512CostsAtMostThreePercentOfADenseGrid) {
+  Params p = preset("unit-ball");
+  p.resolution = 512;
+  const SampledGrid grid = sample(p);
+  EXPECT_LE(static_cast<double>(grid.evaluations()), 0.03 * grid.dense_evaluations());
+}
+
+// Independent complex-arithmetic classifiers (DESIGN.md's methods on C).
+using Cx = std::complex<double>;
+
+bool complex_cutoff_inside(Cx z, Cx (*f)(Cx), int n, double r) {
+  for (int k = 1; k <= n; ++k) {
+    const Cx next = f(z);
+    if (!std::isfinite(next.real()) || !std::isfinite(next.imag())) return true;  // a pole
+    if (std::abs(next - z) < r) return false;
+    z = next;
+  }
+  return true;
+}
+
+Cx newton(Cx z) { return (2.0 * z * z * z + 1.0) / (3.0 * z * z); }
+Cx rosa(Cx z) { return (2.0 * z * z * z - 2.0 * z * z - 3.0) / (3.0 * z * z + 4.0 * z + 1.0); }
+
+// True when the complex picture changes within `radius` of (x, rho): some point of a small
+// circle (or the centre) is classified differently from another.
+template <typename Inside>
+bool near_complex_boundary(Inside inside, double x, double rho, double radius) {
+  const bool centre = inside(x, rho);
+  for (int k = 0; k < 16; ++k) {
+    const double a = 2 * kPi * k / 16;
+    if (inside(x + radius * std::cos(a), rho + radius * std::sin(a)) != centre) return true;
+  }
+  return false;
+}
+
+// Checks that a revolved mesh is the complex picture rotated about the x axis: every vertex
+// (away from the box walls) lies within a quarter voxel of the complex boundary, and every
+// complex boundary point found on a grid has a vertex within a voxel of its circle.
+template <typename Inside>
+void expect_revolved_complex_picture(const Params& p, Inside inside) {
+  const Meshed m = mesh_of(p);
+  expect_watertight(m.measure);
+  const double h = m.voxel;
+  std::size_t checked = 0, far = 0;
+  for (const auto& v : m.mesh.positions) {
+    bool on_wall = false;
+    for (int a = 0; a < 3; ++a)
+      on_wall = on_wall || std::abs(v[a] - p.bounds.min[a]) < 1e-5 ||
+                std::abs(v[a] - p.bounds.max[a]) < 1e-5;
+    if (on_wall) continue;
+    ++checked;
+    // A vertex lies on a grid edge (two coordinates on the lattice): the complex picture must
+    // change along that edge within a quarter voxel of it. Thin features are finer than any
+    // circle of samples, so the search runs along the edge, 129 samples.
+    bool lattice[3];
+    int on_lattice = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double u = (v[a] - p.bounds.min[a]) / h - 0.5;
+      on_lattice += lattice[a] = std::abs(u - std::round(u)) < 1e-3;
+    }
+    // Directions: the axes, then the cube diagonals (the centre vertices of awkward loops are
+    // not on grid edges).
+    static const double kDirs[7][3] = {{1, 0, 0},  {0, 1, 0},  {0, 0, 1}, {1, 1, 1},
+                                       {1, 1, -1}, {1, -1, 1}, {-1, 1, 1}};
+    bool found = false;
+    for (int a = 0; a < 7 && !found; ++a) {
+      if (on_lattice == 2 && (a >= 3 || lattice[a])) continue;
+      const double norm = std::sqrt(kDirs[a][0] * kDirs[a][0] + kDirs[a][1] * kDirs[a][1] +
+                                    kDirs[a][2] * kDirs[a][2]);
+      auto at = [&](double t) {
+        const double q[3] = {v[0] + t * kDirs[a][0] / norm, v[1] + t * kDirs[a][1] / norm,
+                             v[2] + t * kDirs[a][2] / norm};
+        return inside(q[0], std::hypot(q[1], q[2]));
+      };
+      const bool first = at(-0.25 * h);
+      for (int k = 1; k <= 128 && !found; ++k) found = at(-0.25 * h + k * 0.5 * h / 128) != first;
+    }
+    if (!found) ++far;
+  }
+  EXPECT_GT(checked, 1000u);
+  EXPECT_EQ(far, 0u) << "of " << checked << " vertices";
+  // Coverage: boundary points of the complex picture on a grid of the (x, rho) half plane
+  // inside the box, against the vertices binned by (x, rho).
+  const double rho_max =
+      std::min({p.bounds.max[1], -p.bounds.min[1], p.bounds.max[2], -p.bounds.min[2]});
+  const int nx = static_cast<int>((p.bounds.max[0] - p.bounds.min[0]) / h) + 1;
+  const int nr = static_cast<int>(rho_max / h) + 1;
+  std::vector<char> has_vertex(static_cast<std::size_t>(nx) * nr, 0);
+  for (const auto& v : m.mesh.positions) {
+    const int i = static_cast<int>((v[0] - p.bounds.min[0]) / h);
+    const int j = static_cast<int>(std::hypot(double(v[1]), double(v[2])) / h);
+    if (i >= 0 && i < nx && j >= 0 && j < nr) has_vertex[static_cast<std::size_t>(i) * nr + j] = 1;
+  }
+  auto covered = [&](double x, double rho) {
+    const int i0 = static_cast<int>((x - p.bounds.min[0]) / h), j0 = static_cast<int>(rho / h);
+    for (int i = i0 - 1; i <= i0 + 1; ++i)
+      for (int j = j0 - 1; j <= j0 + 1; ++j)
+        if (i >= 0 && i < nx && j >= 0 && j < nr &&
+            has_vertex[static_cast<std::size_t>(i) * nr + j])
+          return true;
+    return false;
+  };
+  std::size_t boundary = 0, missed = 0;
+  for (int i = 1; i + 1 < nx; ++i)
+    for (int j = 1; j + 2 < nr; ++j) {
+      const double x = p.bounds.min[0] + (i + 0.5) * h, rho = (j + 0.5) * h;
+      if (inside(x, rho) == inside(x + h, rho)) continue;
+      ++boundary;
+      if (!covered(x + 0.5 * h, rho)) ++missed;
+    }
+  EXPECT_GT(boundary, 50u);
+  EXPECT_EQ(missed, 0u) << "of " << boundary << " boundary points";
+}
+
+TEST(Extract, NewtonCubicIsTheComplexPictureRevolvedAboutTheRealAxis) {
+  Params p = preset("newton-cubic");
+  p.resolution = 96;
+  expect_revolved_complex_picture(p, [&](double x, double rho) {
+    return complex_cutoff_inside(Cx(x, rho), newton, p.iterations, p.bailout);
+  });
+}
+
+TEST(Extract, RosaRationalMapIsTheComplexPictureRevolvedAboutTheRealAxis) {
+  Params p = preset("rosa-rational");
+  p.resolution = 96;
+  expect_revolved_complex_picture(p, [&](double x, double rho) {
+    return complex_cutoff_inside(Cx(x, rho), rosa, p.iterations, p.bailout);
+  });
+}
+
+TEST(Extract, SectionZEqualsZeroOfClassicJuliaIsTheComplexFilledJuliaSet) {
+  Params p = preset("classic-julia");
+  p.resolution = 128;
+  const Cx c(p.constant("c")->w, p.constant("c")->x);
+  auto inside = [&](double x, double y) {
+    Cx z(x, y);
+    if (std::abs(z) > p.bailout) return false;
+    for (int k = 1; k <= p.iterations; ++k) {
+      z = z * z + c;
+      if (std::abs(z) > p.bailout) return false;
+    }
+    return true;
+  };
+  const Meshed m = mesh_of(p);
+  expect_watertight(m.measure);
+  const double h = m.voxel;
+  // Where mesh edges cross the plane z = 0, the crossing point is on the complex boundary.
+  std::size_t crossings = 0, far = 0;
+  std::vector<std::pair<double, double>> section;
+  for (const auto& t : m.mesh.triangles)
+    for (int e = 0; e < 3; ++e) {
+      const auto &a = m.mesh.positions[t[e]], &b = m.mesh.positions[t[(e + 1) % 3]];
+      if ((a[2] < 0) == (b[2] < 0)) continue;
+      const double s = a[2] / (double(a[2]) - b[2]);
+      const double x = a[0] + s * (b[0] - a[0]), y = a[1] + s * (b[1] - a[1]);
+      ++crossings;
+      section.emplace_back(x, y);
+      // Linear interpolation between two refined vertices: within half a voxel.
+      if (!near_complex_boundary(inside, x, y, 0.5 * h)) ++far;
+    }
+  EXPECT_GT(crossings, 500u);
+  EXPECT_EQ(far, 0u) << "of " << crossings;
+  // Every complex boundary point on a grid has a section point within a voxel.
+  std::size_t boundary = 0, missed = 0;
+  for (double x = -1.4; x < 1.4; x += h)
+    for (double y = -1.4; y < 1.4; y += h) {
+      if (inside(x, y) == inside(x + h, y)) continue;
+      ++boundary;
+      bool found = false;
+      for (const auto& [sx, sy] : section)
+        if (std::abs(sx - (x + 0.5 * h)) <= 1.5 * h && std::abs(sy - y) <= 1.5 * h) {
+          found = true;
+          break;
+        }
+      if (!found) ++missed;
+    }
+  EXPECT_GT(boundary, 100u);
+  EXPECT_EQ(missed, 0u) << "of " << boundary;
+}
+
+}  // namespace
+}  // namespace qjulia

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <string>
@@ -232,6 +233,23 @@ TEST(Formula, BalancedTreesFitTheRegisterFile) {
   expect_near(f.eval(Quat(1.001, 0, 0, 0), nullptr), Quat(std::pow(1.001, 256)), 1e-12);
 }
 
+TEST(Formula, RefusesMoreConstantsThanTheRegisterFileHolds) {
+  std::vector<std::string> names;
+  std::vector<Quat> values;
+  std::string sum = "h";
+  for (int n = 0; n < 40; ++n) {
+    names.push_back("a" + std::to_string(n));
+    values.push_back(Quat(n));
+    sum += "+a" + std::to_string(n);
+  }
+  EXPECT_NE(compile_error(sum, names).find("expected a smaller formula"), std::string::npos);
+  // Thirty constants fit, and unused ones take no register.
+  std::string thirty = "h";
+  for (int n = 0; n < 30; ++n) thirty += "+a" + std::to_string(n);
+  const Formula f = Formula::compile(thirty, names);
+  expect_near(f.eval(Quat(1), values.data()), Quat(1 + 29 * 30 / 2), 0);
+}
+
 TEST(Formula, NewtonMapOfTheCubeFixesTheCubeRootsOfUnity) {
   const Formula f = Formula::compile("(2*h^3+1)/(3*h^2)", {});
   const double s = std::sqrt(3.0) / 2;
@@ -311,6 +329,100 @@ TEST(Formula, DefaultConstructedFormulaIsTheIdentity) {
   expect_near(f.eval(kH, nullptr), kH, 0);
   EXPECT_EQ(f.text(), "h");
   EXPECT_TRUE(f.constant_names().empty());
+}
+
+/// Random formulas, written out with parentheses, together with their value computed directly
+/// with the quaternion.h operators: a reference interpreter for the compiled program.
+class RandomFormula {
+ public:
+  explicit RandomFormula(unsigned seed) : rng_(seed) {}
+
+  /// Text and value of a random expression of the given depth; `scale` grows to the largest
+  /// magnitude met on the way, the yardstick of rounding errors.
+  std::pair<std::string, Quat> make(int depth) {
+    const int choice = depth <= 0 ? pick(4) : pick(12);
+    switch (choice) {
+      case 0:
+        return note({"h", kH});
+      case 1:
+        return pick(2) ? note({"p", kP}) : note({"q", kQ});
+      case 2: {
+        const std::pair<std::string, double> reals[] = {
+            {"2", 2}, {"0.5", 0.5}, {"3", 3}, {"1.25", 1.25}, {".75", 0.75}};
+        const auto& r = reals[pick(5)];
+        return note({r.first, Quat(r.second)});
+      }
+      case 3: {
+        const std::pair<std::string, Quat> units[] = {{"0.5i", Quat(0, 0.5, 0, 0)},
+                                                      {"j", Quat(0, 0, 1, 0)},
+                                                      {"[1,-0.5,0.25,2]", Quat(1, -0.5, 0.25, 2)}};
+        return note(units[pick(3)]);
+      }
+      case 4:
+      case 5:
+      case 6:
+      case 7:
+      case 11: {
+        const auto a = make(depth - 1);
+        const auto b = make(depth - 1);
+        const std::string text_a = "(" + a.first + ")";
+        const std::string text_b = "(" + b.first + ")";
+        if (choice == 4) return note({text_a + "+" + text_b, a.second + b.second});
+        if (choice == 5) return note({text_a + "-" + text_b, a.second - b.second});
+        if (choice == 7) return note({text_a + "/" + text_b, a.second * inv(b.second)});
+        return note({text_a + "*" + text_b, a.second * b.second});
+      }
+      case 8: {
+        const auto a = make(depth - 1);
+        return note({"-(" + a.first + ")", -a.second});
+      }
+      case 9: {
+        const auto a = make(depth - 1);
+        const int n = pick(8) - 3;
+        return note({"(" + a.first + ")^" + std::to_string(n), repeated_product(a.second, n)});
+      }
+      default: {
+        const auto a = make(depth - 1);
+        switch (pick(5)) {
+          case 0:
+            return note({"conj(" + a.first + ")", conj(a.second)});
+          case 1:
+            return note({"inv(" + a.first + ")", inv(a.second)});
+          case 2:
+            return note({"norm(" + a.first + ")", Quat(norm2(a.second))});
+          case 3:
+            return note({"abs(" + a.first + ")", Quat(abs(a.second))});
+          default:
+            return note({"sqr(" + a.first + ")", sqr(a.second)});
+        }
+      }
+    }
+  }
+
+  double scale = 1;
+
+ private:
+  int pick(int n) { return static_cast<int>(rng_() % static_cast<unsigned>(n)); }
+  std::pair<std::string, Quat> note(std::pair<std::string, Quat> e) {
+    if (is_finite(e.second)) scale = std::max(scale, abs(e.second));
+    return e;
+  }
+  std::mt19937 rng_;
+};
+
+TEST(Formula, RandomFormulasAgreeWithDirectQuaternionArithmetic) {
+  const Quat constants[] = {kP, kQ};
+  int compared = 0;
+  for (unsigned seed = 0; seed < 3000; ++seed) {
+    RandomFormula random(seed);
+    const auto [text, expected] = random.make(1 + static_cast<int>(seed % 6));
+    if (!is_finite(expected) || random.scale > 1e8) continue;
+    const Formula f = Formula::compile(text, {"p", "q"});
+    const Quat actual = f.eval(kH, constants);
+    ASSERT_LE(distance(actual, expected), 1e-11 * random.scale) << text;
+    ++compared;
+  }
+  EXPECT_GT(compared, 2000);
 }
 
 TEST(Formula, RandomAndMutatedTextEitherCompilesOrThrowsInvalidInput) {

@@ -23,8 +23,8 @@ double frac(double a, double b) {
 
 float clamp_field(double f) {
   if (std::isnan(f)) return kFieldLimit;  // unreachable by construction; never output NaN
-  return static_cast<float>(std::clamp(f, -static_cast<double>(kFieldLimit),
-                                       static_cast<double>(kFieldLimit)));
+  return static_cast<float>(
+      std::clamp(f, -static_cast<double>(kFieldLimit), static_cast<double>(kFieldLimit)));
 }
 
 }  // namespace
@@ -112,7 +112,8 @@ Orbit Classifier::orbit(double x, double y, double z) const {
     }
     const double t = d2 > 0 ? 0.5 * std::log(d2) - log_r : -std::numeric_limits<double>::infinity();
     if (t < 0) {
-      out.field = clamp_field(k == 1 ? (n_iter - 1) + frac(-t, 1.0) : (n_iter - k) + frac(-t, t_prev));
+      out.field =
+          clamp_field(k == 1 ? (n_iter - 1) + frac(-t, 1.0) : (n_iter - k) + frac(-t, t_prev));
       out.exit_step = k;
       out.last = next;
       return out;

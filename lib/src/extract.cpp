@@ -8,6 +8,7 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <tuple>
 
 #include "detail/grid_impl.h"
@@ -31,7 +32,7 @@ struct CubeTables {
   std::array<int, 12> edge_axis{};
   std::array<std::array<int, 4>, 6> face_corners{};
   std::array<int, 6> face_axis{}, face_side{};
-  std::array<std::array<int, 8>, 8> edge_of{};   // corner pair -> edge, -1 if not an edge
+  std::array<std::array<int, 8>, 8> edge_of{};  // corner pair -> edge, -1 if not an edge
   std::array<std::array<bool, 12>, 12> share_face{};
 
   CubeTables() {
@@ -94,6 +95,9 @@ class Values {
   openvdb::FloatGrid::ConstAccessor acc_;
 };
 
+// Vertices keep this fraction of an edge away from its ends.
+constexpr double kEndMargin = 1e-3;
+
 struct Vec3 {
   double x, y, z;
 };
@@ -103,7 +107,9 @@ struct Vec3 {
 // so the final bracket always holds the boundary.
 Vec3 refine(const Solid& solid, const Vec3& a, float fa, const Vec3& b, float fb, double tol_t,
             int max_steps, std::uint64_t* evaluations) {
-  auto at = [&](double t) { return Vec3{a.x + t * (b.x - a.x), a.y + t * (b.y - a.y), a.z + t * (b.z - a.z)}; };
+  auto at = [&](double t) {
+    return Vec3{a.x + t * (b.x - a.x), a.y + t * (b.y - a.y), a.z + t * (b.z - a.z)};
+  };
   double lo = 0, hi = 1;  // lo keeps the sign of a, hi the sign of b
   double flo = fa, fhi = fb;
   const bool a_inside = fa <= 0;
@@ -119,7 +125,7 @@ Vec3 refine(const Solid& solid, const Vec3& a, float fa, const Vec3& b, float fb
       (solid.constraint(p.x, p.y, p.z) > 0 ? ch : cl) = m;
     }
     const double tc = a_inside ? cl : 1 - cl;
-    const Vec3 pc = at(tc);
+    const Vec3 pc = at(std::clamp(tc, kEndMargin, 1 - kEndMargin));
     ++*evaluations;
     const float fc = solid.field(pc.x, pc.y, pc.z);
     if (fc <= 0) return pc;
@@ -132,11 +138,14 @@ Vec3 refine(const Solid& solid, const Vec3& a, float fa, const Vec3& b, float fb
       flo = fc;
     }
   }
-  int side = 0;
+  // False position, with a bisection step whenever the last step did not halve the bracket:
+  // fast where the field is smooth, never slower than bisection where it is steep (h^2 has
+  // F = 2^N log|h| inside).
+  bool bisect = false;
   for (int step = 0; step < max_steps && hi - lo > tol_t; ++step) {
-    double t = (flo * hi - fhi * lo) / (flo - fhi);
-    // Keep the guess strictly inside the bracket and away from its ends.
-    const double margin = 0.02 * (hi - lo);
+    const double width = hi - lo;
+    double t = bisect ? 0.5 * (lo + hi) : (flo * hi - fhi * lo) / (flo - fhi);
+    const double margin = 0.01 * width;
     if (!(t > lo + margin && t < hi - margin)) t = std::clamp(t, lo + margin, hi - margin);
     const Vec3 p = at(t);
     ++*evaluations;
@@ -144,24 +153,23 @@ Vec3 refine(const Solid& solid, const Vec3& a, float fa, const Vec3& b, float fb
     if ((f <= 0) == (flo <= 0)) {
       lo = t;
       flo = f;
-      if (side == -1) fhi *= 0.5f;  // Illinois: halve the stale end's value
-      side = -1;
     } else {
       hi = t;
       fhi = f;
-      if (side == 1) flo *= 0.5f;
-      side = 1;
     }
+    bisect = bisect || hi - lo > 0.5 * width;  // once steep, stay with bisection
   }
   double t = (flo * hi - fhi * lo) / (flo - fhi);
   if (!(t >= lo && t <= hi)) t = 0.5 * (lo + hi);
-  return at(t);
+  // Never on a grid point: a vertex there would coincide with the vertices of the other edges
+  // of that point and leave zero-area triangles.
+  return at(std::clamp(t, kEndMargin, 1 - kEndMargin));
 }
 
 // A colour ramp over [0, 1] (dark blue, teal, yellow), linear RGB.
 std::array<float, 3> ramp(double x) {
-  static const float stops[4][3] = {{0.05f, 0.05f, 0.35f}, {0.0f, 0.45f, 0.55f},
-                                    {0.55f, 0.8f, 0.2f}, {1.0f, 0.9f, 0.1f}};
+  static const float stops[4][3] = {
+      {0.05f, 0.05f, 0.35f}, {0.0f, 0.45f, 0.55f}, {0.55f, 0.8f, 0.2f}, {1.0f, 0.9f, 0.1f}};
   x = std::clamp(x, 0.0, 1.0) * 3;
   const int i = std::min(2, static_cast<int>(x));
   const float f = static_cast<float>(x - i);
@@ -199,8 +207,8 @@ std::uint64_t colorize(TriMesh& mesh, const Solid& solid, double voxel, ColorMod
   const double tol = std::max(10 * p.bailout, 1e-3);
   std::vector<int> basin(orbits.size(), -1);
   for (std::size_t n = 0; n < orbits.size(); ++n) {
-    const bool settled = p.method == Method::kCutoff ? orbits[n].exit_step >= 0
-                                                     : orbits[n].exit_step < 0;
+    const bool settled =
+        p.method == Method::kCutoff ? orbits[n].exit_step >= 0 : orbits[n].exit_step < 0;
     if (!settled || !is_finite(orbits[n].last)) continue;
     int found = -1;
     for (std::size_t a = 0; a < attractors.size() && found < 0; ++a)
@@ -220,10 +228,9 @@ std::uint64_t colorize(TriMesh& mesh, const Solid& solid, double voxel, ColorMod
   });
   std::vector<int> rank(order.size());
   for (std::size_t r = 0; r < order.size(); ++r) rank[order[r]] = static_cast<int>(r);
-  static const float palette[8][3] = {{0.85f, 0.2f, 0.15f}, {0.15f, 0.55f, 0.85f},
-                                      {0.2f, 0.7f, 0.3f},   {0.9f, 0.7f, 0.1f},
-                                      {0.6f, 0.3f, 0.75f},  {0.1f, 0.7f, 0.7f},
-                                      {0.9f, 0.45f, 0.6f},  {0.5f, 0.5f, 0.2f}};
+  static const float palette[8][3] = {
+      {0.85f, 0.2f, 0.15f}, {0.15f, 0.55f, 0.85f}, {0.2f, 0.7f, 0.3f},  {0.9f, 0.7f, 0.1f},
+      {0.6f, 0.3f, 0.75f},  {0.1f, 0.7f, 0.7f},    {0.9f, 0.45f, 0.6f}, {0.5f, 0.5f, 0.2f}};
   for (std::size_t n = 0; n < orbits.size(); ++n) {
     if (basin[n] < 0) {
       mesh.colors[n] = {0.6f, 0.6f, 0.6f};
@@ -237,8 +244,80 @@ std::uint64_t colorize(TriMesh& mesh, const Solid& solid, double voxel, ColorMod
 
 struct Chunk {
   std::vector<std::array<std::int64_t, 3>> triangles;  // >= 0 edge vertex, < 0 extra vertex
-  std::vector<std::array<float, 3>> extra;              // centre vertices of awkward loops
+  std::vector<std::array<float, 3>> extra;             // centre vertices of awkward loops
+  std::uint64_t evaluations = 0;
 };
+
+// Triangulates a loop of `len` (<= 12) cube edges so that no new edge joins two cube edges
+// that share a face, by dynamic programming over sub-polygons. Writes loop positions (0..len-1)
+// to `out`, three per triangle, counter-clockwise like the loop. Returns the triangle count, or
+// 0 when no such triangulation exists.
+int triangulate_loop(const int* loop, int len,
+                     const std::array<std::array<bool, 12>, 12>& share_face, std::uint8_t* out) {
+  auto allowed = [&](int i, int j) {
+    return j - i == 1 || (i == 0 && j == len - 1) || !share_face[loop[i]][loop[j]];
+  };
+  // split[i][j]: a vertex k that makes (i, k, j) a triangle of a valid triangulation of the
+  // sub-polygon i..j, or -1; for j - i == 1 the sub-polygon is a single edge.
+  int split[12][12];
+  for (int gap = 2; gap < len; ++gap)
+    for (int i = 0; i + gap < len; ++i) {
+      const int j = i + gap;
+      split[i][j] = -1;
+      if (!allowed(i, j)) continue;
+      for (int k = i + 1; k < j && split[i][j] < 0; ++k)
+        if ((k - i == 1 || split[i][k] >= 0) && (j - k == 1 || split[k][j] >= 0)) split[i][j] = k;
+    }
+  if (split[0][len - 1] < 0) return 0;
+  int n = 0;
+  int stack[24][2], top = 0;
+  stack[top][0] = 0;
+  stack[top++][1] = len - 1;
+  while (top > 0) {
+    const int i = stack[--top][0], j = stack[top][1];
+    if (j - i < 2) continue;
+    const int k = split[i][j];
+    out[3 * n] = static_cast<std::uint8_t>(i);
+    out[3 * n + 1] = static_cast<std::uint8_t>(k);
+    out[3 * n + 2] = static_cast<std::uint8_t>(j);
+    ++n;
+    stack[top][0] = i;
+    stack[top++][1] = k;
+    stack[top][0] = k;
+    stack[top++][1] = j;
+  }
+  return n;
+}
+
+// Moves the centre vertex of a loop onto the nearest boundary point found along the loop's
+// normal, the axes and the cube diagonals within half a voxel, else within a voxel; keeps it
+// where none is found.
+std::array<float, 3> project_centre(const Solid& solid, const Vec3& c, const Vec3& normal,
+                                    double voxel, double tol_t, std::uint64_t* evaluations) {
+  std::array<float, 3> out{static_cast<float>(c.x), static_cast<float>(c.y),
+                           static_cast<float>(c.z)};
+  const Vec3 dirs[8] = {normal,    {1, 0, 0},  {0, 1, 0},  {0, 0, 1},
+                        {1, 1, 1}, {1, 1, -1}, {1, -1, 1}, {-1, 1, 1}};
+  double best = std::numeric_limits<double>::infinity();
+  for (int pass = 0; pass < 2 && !std::isfinite(best); ++pass)
+    for (const Vec3& dir : dirs) {
+      const double len = std::sqrt(dir.x * dir.x + dir.y * dir.y + dir.z * dir.z);
+      if (!(len > 0)) continue;
+      const double d = (pass == 0 ? 0.5 : 1.0) * voxel / len;
+      const Vec3 a{c.x - d * dir.x, c.y - d * dir.y, c.z - d * dir.z};
+      const Vec3 b{c.x + d * dir.x, c.y + d * dir.y, c.z + d * dir.z};
+      *evaluations += 2;
+      const float fa = solid.field(a.x, a.y, a.z), fb = solid.field(b.x, b.y, b.z);
+      if ((fa <= 0) == (fb <= 0)) continue;
+      const Vec3 p = refine(solid, a, fa, b, fb, tol_t, 24, evaluations);
+      const double dist = std::hypot(p.x - c.x, p.y - c.y, p.z - c.z);
+      if (dist < best) {
+        best = dist;
+        out = {static_cast<float>(p.x), static_cast<float>(p.y), static_cast<float>(p.z)};
+      }
+    }
+  return out;
+}
 
 }  // namespace
 
@@ -399,23 +478,28 @@ TriMesh extract(const SampledGrid& grid, const Params& params, const ExtractOpti
           const std::uint64_t key = edge_key(cell, loop[q]);
           ids[q] = std::lower_bound(edges.begin(), edges.end(), key) - edges.begin();
         }
-        // A fan from an apex whose diagonals do not join two vertices of one cube face (such a
-        // diagonal could be made by the neighbour cell too); else a centre vertex.
-        int apex = -1;
-        for (int s = 0; s < len && apex < 0; ++s) {
-          bool ok = true;
-          for (int q = 2; q < len - 1 && ok; ++q)
-            ok = !t.share_face[loop[s]][loop[(s + q) % len]];
-          if (ok) apex = s;
-        }
-        if (apex >= 0) {
-          for (int q = 1; q + 1 < len; ++q)
-            out.triangles.push_back({ids[apex], ids[(apex + q) % len], ids[(apex + q + 1) % len]});
+        // Triangulate the loop without a diagonal that joins two vertices of one cube face
+        // (the neighbour cell could make the same edge); else around a centre vertex.
+        std::array<std::uint8_t, 3 * 10> tris;
+        const int ntris = triangulate_loop(loop, len, t.share_face, tris.data());
+        if (ntris > 0) {
+          for (int q = 0; q < ntris; ++q)
+            out.triangles.push_back({ids[tris[3 * q]], ids[tris[3 * q + 1]], ids[tris[3 * q + 2]]});
         } else {
-          std::array<float, 3> centre{0, 0, 0};
-          for (int q = 0; q < len; ++q)
-            for (int a2 = 0; a2 < 3; ++a2) centre[a2] += mesh.positions[ids[q]][a2] / len;
-          out.extra.push_back(centre);
+          Vec3 centre{0, 0, 0}, normal{0, 0, 0};
+          for (int q = 0; q < len; ++q) {
+            const auto& a = mesh.positions[ids[q]];
+            const auto& b = mesh.positions[ids[(q + 1) % len]];
+            centre.x += a[0] / len;
+            centre.y += a[1] / len;
+            centre.z += a[2] / len;
+            // Newell's normal of the loop.
+            normal.x += (double(a[1]) - b[1]) * (double(a[2]) + b[2]);
+            normal.y += (double(a[2]) - b[2]) * (double(a[0]) + b[0]);
+            normal.z += (double(a[0]) - b[0]) * (double(a[1]) + b[1]);
+          }
+          out.extra.push_back(
+              project_centre(solid, centre, normal, geo.voxel, tol_t, &out.evaluations));
           const std::int64_t cid = -static_cast<std::int64_t>(out.extra.size());
           for (int q = 0; q < len; ++q) out.triangles.push_back({cid, ids[q], ids[(q + 1) % len]});
         }
@@ -424,6 +508,7 @@ TriMesh extract(const SampledGrid& grid, const Params& params, const ExtractOpti
   });
   report(0.9);
   for (const Chunk& c : chunks) {
+    evaluations += c.evaluations;
     const std::int64_t base = static_cast<std::int64_t>(mesh.positions.size());
     mesh.positions.insert(mesh.positions.end(), c.extra.begin(), c.extra.end());
     for (const auto& tri : c.triangles) {

@@ -30,22 +30,25 @@ constexpr int kRegisters = 32;    // register file of eval(): h, used constants,
 /// One register operation: regs[dst] = f(regs[a], regs[b], lit). Operands are read before the
 /// destination is written, so dst may equal a or b.
 enum class OpCode : std::uint8_t {
-  kLoad,     // lit
-  kNeg,      // -a
-  kConj,     // conj(a)
-  kInv,      // inv(a)
-  kNorm,     // |a|^2
-  kAbs,      // |a|
-  kSqr,      // a*a
-  kAdd,      // a + b
-  kSub,      // a - b
-  kMul,      // a * b
-  kAddReal,  // a + lit.w (lit real)
-  kAddLit,   // a + lit
-  kLitSub,   // lit - a
-  kScale,    // lit.w * a (lit real: a real factor commutes)
-  kMulLit,   // a * lit
-  kLitMul,   // lit * a
+  kLoad,          // lit
+  kNeg,           // -a
+  kConj,          // conj(a)
+  kInv,           // inv(a)
+  kNorm,          // |a|^2
+  kAbs,           // |a|
+  kSqr,           // a*a
+  kAdd,           // a + b
+  kSub,           // a - b
+  kMul,           // a * b
+  kDiv,           // a * inv(b)
+  kAddReal,       // a + lit.w (lit real)
+  kAddLit,        // a + lit
+  kLitSub,        // lit - a
+  kScale,         // lit.w * a (lit real: a real factor commutes)
+  kMulLit,        // a * lit
+  kLitMul,        // lit * a
+  kLitDiv,        // lit * inv(a)
+  kScaleAddReal,  // lit.w * a + lit.x (both real): kScale fused with the kAddReal after it
 };
 
 struct Op {
@@ -555,6 +558,15 @@ class CodeGen {
   int dest_for(int slot) { return is_temp(slot) ? slot : alloc(); }
 
   void emit(OpCode code, int dst, int a = 0, int b = 0, const Quat& lit = Quat()) {
+    // Peephole: s*x followed by + t on the same register (the 2*h^3 + 1 of Newton maps).
+    if (code == OpCode::kAddReal && !program_.ops.empty()) {
+      Op& last = program_.ops.back();
+      if (last.code == OpCode::kScale && last.dst == a && dst == a) {
+        last.code = OpCode::kScaleAddReal;
+        last.lit.x = lit.w;
+        return;
+      }
+    }
     Op op;
     op.code = code;
     op.dst = static_cast<std::uint8_t>(dst);
@@ -662,8 +674,7 @@ class CodeGen {
           is_real(l) ? emit(OpCode::kScale, d, s, 0, l) : emit(OpCode::kLitMul, d, s, 0, l);
           break;
         default:  // L / x = L * inv(x)
-          emit(OpCode::kInv, d, s);
-          is_real(l) ? emit(OpCode::kScale, d, d, 0, l) : emit(OpCode::kLitMul, d, d, 0, l);
+          emit(OpCode::kLitDiv, d, s, 0, l);
           break;
       }
       return d;
@@ -697,12 +708,9 @@ class CodeGen {
       case NodeKind::kMul:
         emit(OpCode::kMul, d, sa, sb);
         break;
-      default: {  // a / b = a * inv(b): invert b in a temporary, then multiply
-        const int t = is_temp(sb) ? sb : alloc();
-        emit(OpCode::kInv, t, sb);
-        emit(OpCode::kMul, d, sa, t);
+      default:
+        emit(OpCode::kDiv, d, sa, sb);
         break;
-      }
     }
     top_ = d + 1;
     return d;
@@ -823,6 +831,9 @@ Quat Formula::eval(const Quat& h, const Quat* constants) const {
       case OpCode::kMul:
         r = a * regs[op.b].q;
         break;
+      case OpCode::kDiv:
+        r = a * inv(regs[op.b].q);
+        break;
       case OpCode::kAddReal:
         r = Quat(a.w + op.lit.w, a.x, a.y, a.z);
         break;
@@ -840,6 +851,13 @@ Quat Formula::eval(const Quat& h, const Quat* constants) const {
         break;
       case OpCode::kLitMul:
         r = op.lit * a;
+        break;
+      case OpCode::kLitDiv:
+        r = op.lit * inv(a);
+        break;
+      case OpCode::kScaleAddReal:
+        r = op.lit.w * a;
+        r.w += op.lit.x;
         break;
     }
     regs[op.dst].q = r;

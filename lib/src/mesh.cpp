@@ -26,7 +26,7 @@ struct UnionFind {
 struct HalfEdge {
   std::uint32_t lo, hi;  // undirected key
   std::uint32_t face;
-  bool forward;          // lo -> hi in the face
+  bool forward;  // lo -> hi in the face
   bool operator<(const HalfEdge& o) const {
     return lo != o.lo ? lo < o.lo : hi != o.hi ? hi < o.hi : face < o.face;
   }
@@ -83,7 +83,7 @@ MeshMeasure measure(const TriMesh& mesh) {
   std::vector<char> face_open(nf, 0);
   UnionFind faces_uf(nf);
   std::vector<std::size_t> component_edges_key;  // filled later per component
-  std::vector<std::uint32_t> edge_face;           // one face per edge, for per-component counts
+  std::vector<std::uint32_t> edge_face;          // one face per edge, for per-component counts
   for (std::size_t i = 0; i < half.size();) {
     std::size_t j = i;
     while (j < half.size() && half[j].lo == half[i].lo && half[j].hi == half[i].hi) ++j;
@@ -176,10 +176,9 @@ MeshMeasure measure(const TriMesh& mesh) {
       comps[c].euler = comp_vertices[c] - comp_edges[c] + static_cast<std::int64_t>(comps[c].faces);
       comps[c].genus = comps[c].closed ? (2 - comps[c].euler) / 2 : -1;
     }
-    std::stable_sort(comps.begin(), comps.end(),
-                     [](const ComponentMeasure& a, const ComponentMeasure& b) {
-                       return a.faces > b.faces;
-                     });
+    std::stable_sort(
+        comps.begin(), comps.end(),
+        [](const ComponentMeasure& a, const ComponentMeasure& b) { return a.faces > b.faces; });
     m.components = std::move(comps);
   }
   for (const auto& c : m.components) {
@@ -207,7 +206,8 @@ void compute_normals(TriMesh& mesh) {
   }
   mesh.normals.resize(mesh.positions.size());
   for (std::size_t v = 0; v < acc.size(); ++v) {
-    const double len = std::sqrt(acc[v][0] * acc[v][0] + acc[v][1] * acc[v][1] + acc[v][2] * acc[v][2]);
+    const double len =
+        std::sqrt(acc[v][0] * acc[v][0] + acc[v][1] * acc[v][1] + acc[v][2] * acc[v][2]);
     if (len > 0 && std::isfinite(len))
       mesh.normals[v] = {float(acc[v][0] / len), float(acc[v][1] / len), float(acc[v][2] / len)};
     else

@@ -41,7 +41,8 @@ double get_number(const json& v, const std::string& source, const std::string& k
 }
 
 long long get_integer(const json& v, const std::string& source, const std::string& key) {
-  if (!v.is_number_integer() && !(v.is_number_float() && std::floor(v.get<double>()) == v.get<double>()))
+  if (!v.is_number_integer() &&
+      !(v.is_number_float() && std::floor(v.get<double>()) == v.get<double>()))
     fail(source, "'" + key + "' must be an integer");
   return v.get<long long>();
 }
@@ -99,10 +100,14 @@ ColorMode parse_color(const std::string& s, const std::string& source) {
 
 Quat axis_quat(char axis) {
   switch (axis) {
-    case 'r': return {1, 0, 0, 0};
-    case 'm': return {0, 1, 0, 0};
-    case 'n': return {0, 0, 1, 0};
-    default: return {0, 0, 0, 1};
+    case 'r':
+      return {1, 0, 0, 0};
+    case 'm':
+      return {0, 1, 0, 0};
+    case 'n':
+      return {0, 0, 1, 0};
+    default:
+      return {0, 0, 0, 1};
   }
 }
 
@@ -181,8 +186,10 @@ void validate(const Params& p) {
     const std::string& ax = p.slice.axes;
     if (ax.size() != 3 || ax.find_first_not_of("rmnp") != std::string::npos || ax[0] == ax[1] ||
         ax[0] == ax[2] || ax[1] == ax[2])
-      fail(src, "'slice.axes' must be three distinct letters of \"rmnp\" (r=real, m=i, n=j, "
-                "p=k), not \"" + ax + "\"");
+      fail(src,
+           "'slice.axes' must be three distinct letters of \"rmnp\" (r=real, m=i, n=j, "
+           "p=k), not \"" +
+               ax + "\"");
     if (!std::isfinite(p.slice.fixed)) fail(src, "'slice.fixed' must be finite");
   }
   std::vector<std::string> names;
@@ -225,7 +232,8 @@ Params parse_params(const std::string& json_text, const std::string& source) {
               "start", "slice", "bounds", "resolution", "mesh", "print"},
              source, "");
   Params p;
-  if (j.contains("description")) p.description = get_string(j["description"], source, "description");
+  if (j.contains("description"))
+    p.description = get_string(j["description"], source, "description");
   if (j.contains("formula")) p.formula = get_string(j["formula"], source, "formula");
   if (j.contains("constants")) {
     const json& c = j["constants"];
@@ -277,8 +285,10 @@ Params parse_params(const std::string& json_text, const std::string& source) {
     const json& m = j["mesh"];
     if (!m.is_object()) fail(source, "'mesh' must be an object");
     check_keys(m, {"color", "faces", "max_error", "min_component", "clip"}, source, "mesh.");
-    if (m.contains("color")) p.mesh.color = parse_color(get_string(m["color"], source, "mesh.color"), source);
-    if (m.contains("faces") && !m["faces"].is_null()) p.mesh.faces = get_integer(m["faces"], source, "mesh.faces");
+    if (m.contains("color"))
+      p.mesh.color = parse_color(get_string(m["color"], source, "mesh.color"), source);
+    if (m.contains("faces") && !m["faces"].is_null())
+      p.mesh.faces = get_integer(m["faces"], source, "mesh.faces");
     if (m.contains("max_error") && !m["max_error"].is_null())
       p.mesh.max_error = get_number(m["max_error"], source, "mesh.max_error");
     if (m.contains("min_component") && !m["min_component"].is_null())
@@ -298,7 +308,8 @@ Params parse_params(const std::string& json_text, const std::string& source) {
     if (pr.contains("size_mm") && !pr["size_mm"].is_null())
       p.print.size_mm = get_number(pr["size_mm"], source, "print.size_mm");
     if (pr.contains("min_thickness_mm") && !pr["min_thickness_mm"].is_null())
-      p.print.min_thickness_mm = get_number(pr["min_thickness_mm"], source, "print.min_thickness_mm");
+      p.print.min_thickness_mm =
+          get_number(pr["min_thickness_mm"], source, "print.min_thickness_mm");
     if (pr.contains("check")) {
       if (!pr["check"].is_boolean()) fail(source, "'print.check' must be true or false");
       p.print.check = pr["check"].get<bool>();

@@ -27,7 +27,8 @@ class StageTimer {
     return [this, stage](double f) { return !progress_ || progress_(stage, f); };
   }
   void stop() {
-    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - begin_).count();
+    const double s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - begin_).count();
     stats_.timings.emplace_back(stage_, s);
   }
 
@@ -59,7 +60,7 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   sopts.progress = timer.start("sample");
   SampledGrid grid = sample(params, sopts);
   timer.stop();
-  stats.sample_evaluations = grid.evaluations();
+  stats.evaluations = grid.evaluations();
   stats.dense_evaluations = grid.dense_evaluations();
   stats.crossing_cells = grid.crossing_cells();
   stats.voxel_size = grid.voxel_size();
@@ -71,7 +72,7 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   ExtractStats estats;
   TriMesh mesh = extract(grid, params, eopts, &estats);
   timer.stop();
-  stats.evaluations = stats.sample_evaluations + estats.evaluations;
+  stats.refine_evaluations = estats.evaluations;
 
   CleanOptions copts;
   copts.min_component_volume = params.mesh.min_component;
@@ -128,8 +129,8 @@ std::string stats_to_json(const RunStats& s, const Params& params) {
   json j;
   j["qjulia_version"] = version();
   j["evaluations"] = s.evaluations;
-  j["sample_evaluations"] = s.sample_evaluations;
-  j["refine_evaluations"] = s.evaluations - s.sample_evaluations;
+  j["refine_evaluations"] = s.refine_evaluations;
+  j["total_evaluations"] = s.evaluations + s.refine_evaluations;
   j["dense_evaluations"] = s.dense_evaluations;
   j["evaluation_ratio"] =
       s.dense_evaluations ? static_cast<double>(s.evaluations) / s.dense_evaluations : 0.0;
@@ -188,7 +189,7 @@ std::string stats_to_json(const RunStats& s, const Params& params) {
     pr["components"] = m.components.size();
     if (s.self_intersections) pr["self_intersections"] = *s.self_intersections;
     const bool mm = s.unit == "mm";
-    pr["volume_cm3"] = mm ? m.volume / 1000.0 : json(nullptr);
+    pr["volume_cm3"] = mm ? json(m.volume / 1000.0) : json(nullptr);
     pr["bbox_mm"] = mm ? json::array({m.bbox_max[0] - m.bbox_min[0], m.bbox_max[1] - m.bbox_min[1],
                                       m.bbox_max[2] - m.bbox_min[2]})
                        : json(nullptr);

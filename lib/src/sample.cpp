@@ -10,6 +10,8 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <limits>
 #include <mutex>
 #include <stdexcept>
 
@@ -23,6 +25,10 @@ namespace {
 using detail::pack;
 using detail::unpack;
 using openvdb::Coord;
+
+// A cell is refined when its sampled values do not change sign but their smallest magnitude is
+// below kRoughness times their spread: the field may cross zero between the samples.
+constexpr float kRoughness = 1.0f;
 
 // Adds point (i, j, k) unless it lies below the grid (such points are outside the box and never
 // evaluated).
@@ -43,7 +49,9 @@ class Sampler {
     grid_ = openvdb::FloatGrid::create(background());
   }
 
-  float background() const { return static_cast<float>(solid_.classifier().params().iterations + 1); }
+  float background() const {
+    return static_cast<float>(solid_.classifier().params().iterations + 1);
+  }
 
   std::array<double, 3> position(int i, int j, int k) const {
     return {geo_.origin[0] + i * geo_.voxel, geo_.origin[1] + j * geo_.voxel,
@@ -56,28 +64,29 @@ class Sampler {
 
   // Evaluates every non-virtual point of `keys` not yet in the grid; keys are sorted/unique.
   void evaluate(std::vector<std::uint64_t>& keys) {
-    {
-      auto acc = grid_->getConstAccessor();
-      float v;
-      keys.erase(std::remove_if(keys.begin(), keys.end(),
-                                [&](std::uint64_t key) {
-                                  const Coord c = unpack(key);
-                                  return is_virtual(c.x(), c.y(), c.z(), &v) || acc.isValueOn(c);
-                                }),
-                 keys.end());
-    }
+    // Mark what needs evaluating (in parallel: the grid is only read here).
     std::vector<float> values(keys.size());
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, keys.size(), 256),
+    std::vector<char> todo(keys.size(), 0);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, keys.size(), 1024),
                       [&](const tbb::blocked_range<std::size_t>& r) {
+                        auto acc = grid_->getConstAccessor();
                         for (std::size_t n = r.begin(); n != r.end(); ++n) {
                           const Coord c = unpack(keys[n]);
+                          float v;
+                          if (is_virtual(c.x(), c.y(), c.z(), &v) || acc.isValueOn(c)) continue;
+                          todo[n] = 1;
                           const auto p = position(c.x(), c.y(), c.z());
                           values[n] = solid_.field(p[0], p[1], p[2]);
                         }
                       });
     auto acc = grid_->getAccessor();
-    for (std::size_t n = 0; n < keys.size(); ++n) acc.setValueOn(unpack(keys[n]), values[n]);
-    evaluations_ += keys.size();
+    std::size_t count = 0;
+    for (std::size_t n = 0; n < keys.size(); ++n)
+      if (todo[n]) {
+        acc.setValueOn(unpack(keys[n]), values[n]);
+        ++count;
+      }
+    evaluations_ += count;
   }
 
   // The value at a point that was evaluated (or is virtual).
@@ -133,7 +142,8 @@ class Sampler {
             for (int dk = 0; dk <= 2; ++dk)
               push_point(keys, c.x() * s + di * half, c.y() * s + dj * half, c.z() * s + dk * half);
         for (int d = 0; d < 8; ++d)
-          push_cell(children, 2 * c.x() + (d & 1), 2 * c.y() + ((d >> 1) & 1), 2 * c.z() + (d >> 2));
+          push_cell(children, 2 * c.x() + (d & 1), 2 * c.y() + ((d >> 1) & 1),
+                    2 * c.z() + (d >> 2));
       }
       tbb::parallel_sort(keys.begin(), keys.end());
       keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
@@ -142,7 +152,7 @@ class Sampler {
       children.erase(std::unique(children.begin(), children.end()), children.end());
       s = half;
       cells = flag(children, s, false);
-      if (s > 1 && s >= 4) cells = dilate(cells);
+      if (s >= 4) cells = dilate(cells);
       report(0.1 + 0.8 * (1.0 - std::log2(s) / std::log2(opts_.coarse_block)));
     }
     // 3. Close the surface: a crossing voxel whose face has a sign change continues into the
@@ -154,30 +164,39 @@ class Sampler {
   // coarse level) differ in sign, or a corner is near zero.
   std::vector<std::uint64_t> flag(const std::vector<std::uint64_t>& cells, int s, bool coarse) {
     std::vector<char> keep(cells.size(), 0);
-    const float near = coarse ? 1.0f : 0.0f;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells.size(), 1024),
                       [&](const tbb::blocked_range<std::size_t>& r) {
                         auto acc = grid_->getConstAccessor();
                         for (std::size_t n = r.begin(); n != r.end(); ++n) {
                           const Coord c = unpack(cells[n]);
                           int inside = 0, total = 0;
-                          bool is_near = false;
-                          for (int d = 0; d < 8; ++d) {
-                            const float v = value(acc, (c.x() + (d & 1)) * s,
-                                                  (c.y() + ((d >> 1) & 1)) * s,
-                                                  (c.z() + (d >> 2)) * s);
+                          // Range of the sampled (not virtual) values.
+                          float lo = std::numeric_limits<float>::max(), hi = -lo;
+                          auto visit = [&](int i, int j, int k) {
+                            float v;
+                            const bool virt = is_virtual(i, j, k, &v);
+                            if (!virt) {
+                              v = acc.getValue(Coord(i, j, k));
+                              lo = std::min(lo, v);
+                              hi = std::max(hi, v);
+                            }
                             inside += v <= 0;
                             ++total;
-                            is_near = is_near || std::abs(v) < near;
+                          };
+                          for (int d = 0; d < 8; ++d)
+                            visit((c.x() + (d & 1)) * s, (c.y() + ((d >> 1) & 1)) * s,
+                                  (c.z() + (d >> 2)) * s);
+                          if (coarse)
+                            visit(c.x() * s + s / 2, c.y() * s + s / 2, c.z() * s + s / 2);
+                          bool rough = false;
+                          if (s > 1 && lo <= hi) {
+                            // The field may reach zero inside the cell when it varies across the
+                            // cell by more than its smallest magnitude (a thin feature between
+                            // samples), or is close to zero anyway.
+                            const float m = lo > 0 ? lo : -hi;
+                            rough = m < kRoughness * (hi - lo);
                           }
-                          if (coarse) {
-                            const float v = value(acc, c.x() * s + s / 2, c.y() * s + s / 2,
-                                                  c.z() * s + s / 2);
-                            inside += v <= 0;
-                            ++total;
-                            is_near = is_near || std::abs(v) < near;
-                          }
-                          keep[n] = (inside != 0 && inside != total) || is_near;
+                          keep[n] = (inside != 0 && inside != total) || rough;
                         }
                       });
     std::vector<std::uint64_t> out;
@@ -212,7 +231,8 @@ class Sampler {
       std::vector<std::uint64_t> keys;
       for (std::uint64_t key : frontier) {
         const Coord c = unpack(key);
-        for (int d = 0; d < 8; ++d) push_point(keys, c.x() + (d & 1), c.y() + ((d >> 1) & 1), c.z() + (d >> 2));
+        for (int d = 0; d < 8; ++d)
+          push_point(keys, c.x() + (d & 1), c.y() + ((d >> 1) & 1), c.z() + (d >> 2));
       }
       tbb::parallel_sort(keys.begin(), keys.end());
       keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
@@ -284,7 +304,8 @@ class Sampler {
         for (int j = 0; j < pts[1]; ++j)
           for (int k = 0; k < pts[2]; ++k)
             if (!is_virtual(i, j, k, &v)) {
-              acc.setValueOn(Coord(i, j, k), dense[i * plane + static_cast<std::size_t>(j) * pts[2] + k]);
+              acc.setValueOn(Coord(i, j, k),
+                             dense[i * plane + static_cast<std::size_t>(j) * pts[2] + k]);
               ++count;
             }
     }
@@ -319,11 +340,13 @@ class Sampler {
           if (std::binary_search(top_cells_.begin(), top_cells_.end(), pack(i, j, k))) continue;
           bool inside = true;
           for (int d = 0; d < 8 && inside; ++d)
-            inside = value(acc, (i + (d & 1)) * s, (j + ((d >> 1) & 1)) * s, (k + (d >> 2)) * s) <= 0;
+            inside =
+                value(acc, (i + (d & 1)) * s, (j + ((d >> 1) & 1)) * s, (k + (d >> 2)) * s) <= 0;
           if (inside)
-            tiles->tree().fill(openvdb::CoordBBox(Coord(i * s, j * s, k * s),
-                                                  Coord(i * s + s - 1, j * s + s - 1, k * s + s - 1)),
-                               -background(), false);
+            tiles->tree().fill(
+                openvdb::CoordBBox(Coord(i * s, j * s, k * s),
+                                   Coord(i * s + s - 1, j * s + s - 1, k * s + s - 1)),
+                -background(), false);
         }
     openvdb::tools::compReplace(*tiles, *grid_);
     grid_ = tiles;
@@ -338,10 +361,12 @@ class Sampler {
     impl.grid = grid_;
     impl.grid->setName("F");
     impl.grid->setTransform(openvdb::math::Transform::createLinearTransform(geo_.voxel));
-    impl.grid->transform().postTranslate(openvdb::Vec3d(geo_.origin[0], geo_.origin[1], geo_.origin[2]));
+    impl.grid->transform().postTranslate(
+        openvdb::Vec3d(geo_.origin[0], geo_.origin[1], geo_.origin[2]));
     impl.crossing = std::move(crossing_);
     impl.evaluations = evaluations_;
-    impl.dense_evaluations = static_cast<std::uint64_t>(geo_.points[0]) * geo_.points[1] * geo_.points[2];
+    impl.dense_evaluations =
+        static_cast<std::uint64_t>(geo_.points[0]) * geo_.points[1] * geo_.points[2];
     report(1.0);
     return out;
   }
@@ -363,12 +388,15 @@ std::once_flag g_openvdb_init;
 GridGeometry grid_geometry(const Params& params) {
   GridGeometry g;
   double longest = 0;
-  for (int a = 0; a < 3; ++a) longest = std::max(longest, params.bounds.max[a] - params.bounds.min[a]);
+  for (int a = 0; a < 3; ++a)
+    longest = std::max(longest, params.bounds.max[a] - params.bounds.min[a]);
   g.voxel = longest / params.resolution;
   for (int a = 0; a < 3; ++a) {
-    g.origin[a] = params.bounds.min[a];
+    // Points sit at the centres of the voxels, so no point lies on a wall of the box and caps
+    // never pass through grid points.
+    g.origin[a] = params.bounds.min[a] + 0.5 * g.voxel;
     const double cells = (params.bounds.max[a] - params.bounds.min[a]) / g.voxel;
-    g.points[a] = static_cast<int>(std::ceil(cells - 1e-9)) + 1;
+    g.points[a] = static_cast<int>(std::floor(cells - 0.5 + 1e-9)) + 1;
   }
   return g;
 }

@@ -123,10 +123,10 @@ double parse_length_mm(const std::string& text, const std::string& what) {
 }
 
 std::vector<OptionSpec> param_option_specs() {
-  return {{"preset"},      {"formula"},     {"const"},     {"mode"},       {"method"},
-          {"iterations"},  {"bailout"},     {"resolution"}, {"bounds"},    {"axes"},
-          {"fixed"},       {"start"},       {"color"},     {"faces"},      {"max-error"},
-          {"min-component"}, {"clip"},      {"size"},      {"min-thickness"}, {"check", false}};
+  return {{"preset"},        {"formula"}, {"const"},      {"mode"},          {"method"},
+          {"iterations"},    {"bailout"}, {"resolution"}, {"bounds"},        {"axes"},
+          {"fixed"},         {"start"},   {"color"},      {"faces"},         {"max-error"},
+          {"min-component"}, {"clip"},    {"size"},       {"min-thickness"}, {"check", false}};
 }
 
 Params params_from_args(const ParsedArgs& args, const std::string& params_file) {
@@ -149,14 +149,20 @@ Params params_from_args(const ParsedArgs& args, const std::string& params_file) 
                                         : Quat{values[0], values[1], values[2], values[3]});
   }
   if (auto v = args.get("mode")) {
-    if (*v == "julia") p.mode = Mode::kJulia;
-    else if (*v == "mandelbrot") p.mode = Mode::kMandelbrot;
-    else throw InvalidInput("--mode: expected julia or mandelbrot, not '" + *v + "'");
+    if (*v == "julia")
+      p.mode = Mode::kJulia;
+    else if (*v == "mandelbrot")
+      p.mode = Mode::kMandelbrot;
+    else
+      throw InvalidInput("--mode: expected julia or mandelbrot, not '" + *v + "'");
   }
   if (auto v = args.get("method")) {
-    if (*v == "escape") p.method = Method::kEscape;
-    else if (*v == "cutoff" || *v == "cut-off") p.method = Method::kCutoff;
-    else throw InvalidInput("--method: expected escape or cutoff, not '" + *v + "'");
+    if (*v == "escape")
+      p.method = Method::kEscape;
+    else if (*v == "cutoff" || *v == "cut-off")
+      p.method = Method::kCutoff;
+    else
+      throw InvalidInput("--method: expected escape or cutoff, not '" + *v + "'");
   }
   if (auto v = args.get("iterations")) {
     const long long n = parse_int(*v, "--iterations");
@@ -187,14 +193,19 @@ Params params_from_args(const ParsedArgs& args, const std::string& params_file) 
     p.start = {s[0], s[1], s[2], s[3]};
   }
   if (auto v = args.get("color")) {
-    if (*v == "none") p.mesh.color = ColorMode::kNone;
-    else if (*v == "iterations") p.mesh.color = ColorMode::kIterations;
-    else if (*v == "basin") p.mesh.color = ColorMode::kBasin;
-    else throw InvalidInput("--color: expected iterations, basin or none, not '" + *v + "'");
+    if (*v == "none")
+      p.mesh.color = ColorMode::kNone;
+    else if (*v == "iterations")
+      p.mesh.color = ColorMode::kIterations;
+    else if (*v == "basin")
+      p.mesh.color = ColorMode::kBasin;
+    else
+      throw InvalidInput("--color: expected iterations, basin or none, not '" + *v + "'");
   }
   if (auto v = args.get("faces")) p.mesh.faces = parse_int(*v, "--faces");
   if (auto v = args.get("max-error")) p.mesh.max_error = parse_double(*v, "--max-error");
-  if (auto v = args.get("min-component")) p.mesh.min_component = parse_double(*v, "--min-component");
+  if (auto v = args.get("min-component"))
+    p.mesh.min_component = parse_double(*v, "--min-component");
   for (const std::string& c : args.all("clip")) {
     const auto v = parse_doubles(c, 4, "--clip (nx,ny,nz,d)");
     p.mesh.clip.push_back({{v[0], v[1], v[2]}, v[3]});

@@ -67,9 +67,11 @@ int cmd_bench(const Tokens& tokens) {
       double total = 0;
       for (const auto& [stage_name, sec] : s.timings) total += sec;
       const double classify_time = stage("sample") + stage("extract");
-      // voxel-iterations: classifier calls times the iteration count (an upper bound of the
-      // iterations done, since orbits stop when they escape or converge).
-      const double voxit = static_cast<double>(s.evaluations) * p.iterations / classify_time;
+      // voxel-iterations: all classifier calls (sampling and refinement) times the iteration
+      // count, an upper bound of the iterations done, since orbits stop when they escape or
+      // converge.
+      const double voxit =
+          static_cast<double>(s.evaluations + s.refine_evaluations) * p.iterations / classify_time;
       std::printf("%-16s %5d %12llu %8.3f %12zu %12.3g %9.3f %9.3f %9.3f %9.3f %9.3f %8.0f\n",
                   name.c_str(), res, static_cast<unsigned long long>(s.evaluations),
                   100.0 * s.evaluations / s.dense_evaluations, s.measure.faces, voxit,

@@ -16,7 +16,8 @@
 namespace qjulia::cli {
 namespace {
 
-constexpr const char* kHelp = R"(usage: qjulia mesh [PARAMS.json] [options] -o OUT.(glb|gltf|obj|ply|stl|3mf)
+constexpr const char* kHelp =
+    R"help(usage: qjulia mesh [PARAMS.json] [options] -o OUT.(glb|gltf|obj|ply|stl|3mf)
 
 Meshes the solid of a quaternionic Julia set. Without parameters: the Newton cubic
 (2h^3+1)/(3h^2) with the cut-off method (preset newton-cubic).
@@ -50,7 +51,7 @@ run:
   --dense                    evaluate every grid point (validation)
   --threads T                worker threads (default: all cores)
   --quiet                    no progress bar
-)";
+)help";
 
 }  // namespace
 
@@ -119,10 +120,11 @@ int cmd_mesh(const Tokens& tokens) {
   if (preview) std::printf("preview: %s\n", preview->c_str());
   double total = 0;
   for (const auto& [stage, s] : result.stats.timings) total += s;
-  std::printf("evaluations: %llu of %llu dense (%.2f%%), %.2f s\n",
+  std::printf("evaluations: %llu grid (%.2f%% of %llu dense) + %llu refinement, %.2f s\n",
               static_cast<unsigned long long>(result.stats.evaluations),
+              100.0 * result.stats.evaluations / result.stats.dense_evaluations,
               static_cast<unsigned long long>(result.stats.dense_evaluations),
-              100.0 * result.stats.evaluations / result.stats.dense_evaluations, total);
+              static_cast<unsigned long long>(result.stats.refine_evaluations), total);
   return 0;
 }
 

@@ -23,8 +23,9 @@ int cmd_params(const Tokens& tokens) {
   specs.push_back({"help", false});
   const ParsedArgs args = parse_args(tokens, specs, "params");
   if (args.has("help")) {
-    std::puts("usage: qjulia params [PARAMS.json] [--preset NAME] [overrides...]\n"
-              "Prints the resulting parameter file (flags as for qjulia mesh).");
+    std::puts(
+        "usage: qjulia params [PARAMS.json] [--preset NAME] [overrides...]\n"
+        "Prints the resulting parameter file (flags as for qjulia mesh).");
     return 0;
   }
   if (args.positional.size() > 1)

@@ -1,8 +1,145 @@
-// Placeholder until the render command lands.
-#include <stdexcept>
+// qjulia render: preview images of meshes, and contact sheets of several meshes or views.
+#include <tbb/global_control.h>
 
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "cli.h"
 #include "commands.h"
+#include "qjulia/error.h"
+#include "qjulia/export.h"
+#include "qjulia/render.h"
+#include "render_args.h"
 
 namespace qjulia::cli {
-int cmd_render(const Tokens&) { throw std::runtime_error("'render' is not built yet"); }
+namespace {
+
+constexpr const char* kRenderUsage =
+    R"(usage: qjulia render MESH... -o OUT.png [options]
+
+Draws MESH (any format qjulia writes: glb, gltf, obj, ply, stl, 3mf) with an orthographic
+camera looking down -z, framed automatically. Several inputs, or several --view, make a contact
+sheet with one captioned cell each; inputs ending in .png are placed in the sheet as they are.
+
+options:
+  -o, --output OUT.png      the image (written atomically)
+  --view rx,ry,rz           one cell per view (rotation as --rotate); repeatable
+  --columns N               cells per row of a contact sheet (default: ceil(sqrt(cells)))
+  --caption TEXT            caption of the next cell (default: file name); repeatable
+  --threads T               worker threads (default: all cores)
+)";
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+std::string format_view(const std::array<double, 3>& r) {
+  char buf[96];
+  std::snprintf(buf, sizeof buf, "%g,%g,%g", r[0], r[1], r[2]);
+  return buf;
+}
+
+}  // namespace
+
+int cmd_render(const Tokens& tokens) {
+  std::vector<OptionSpec> specs = render_option_specs();
+  for (const char* name : {"output", "view", "columns", "caption", "threads"})
+    specs.push_back({name, true});
+  specs.push_back({"help", false});
+  const ParsedArgs args = parse_args(tokens, specs, "render");
+  if (args.has("help")) {
+    std::fputs(kRenderUsage, stdout);
+    std::fputs(render_options_help().c_str(), stdout);
+    return 0;
+  }
+  if (args.positional.empty())
+    throw InvalidInput("no input mesh given (usage: render MESH -o OUT.png)");
+  const auto out = args.get("output");
+  if (!out) throw InvalidInput("-o OUT.png is required");
+  if (lower_extension(*out) != ".png") throw InvalidInput("-o: '" + *out + "' must end in .png");
+
+  std::unique_ptr<tbb::global_control> threads;
+  if (auto t = args.get("threads")) {
+    const long long n = parse_int(*t, "--threads");
+    if (n < 1 || n > 1024) throw InvalidInput("--threads: must be 1..1024");
+    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                    static_cast<std::size_t>(n));
+  }
+
+  const RenderOptions base = render_options_from_args(args);
+  std::vector<std::array<double, 3>> views;
+  for (const std::string& v : args.all("view")) {
+    const auto d = parse_doubles(v, 3, "--view");
+    views.push_back({d[0], d[1], d[2]});
+  }
+  if (views.empty()) views.push_back(base.rotate_deg);
+
+  for (const std::string& input : args.positional)
+    if (!std::filesystem::is_regular_file(input))
+      throw InvalidInput("input '" + input + "': no such file");
+
+  const auto t0 = std::chrono::steady_clock::now();
+  std::vector<std::pair<Image, std::string>> cells;
+  std::size_t faces = 0;
+  for (const std::string& input : args.positional) {
+    const std::string stem = std::filesystem::path(input).stem().string();
+    if (lower_extension(input) == ".png") {
+      cells.emplace_back(read_png(input), stem);
+      continue;
+    }
+    const TriMesh mesh = read_mesh(input);
+    faces += mesh.face_count();
+    for (const auto& view : views) {
+      RenderOptions o = base;
+      o.rotate_deg = view;
+      cells.emplace_back(render(mesh, o), views.size() > 1 ? stem + " " + format_view(view) : stem);
+    }
+  }
+  const auto captions = args.all("caption");
+  if (captions.size() > cells.size())
+    throw InvalidInput("--caption: " + std::to_string(captions.size()) + " captions for " +
+                       std::to_string(cells.size()) + " cells");
+  for (std::size_t i = 0; i < captions.size(); ++i) cells[i].second = captions[i];
+
+  Image image;
+  if (cells.size() == 1 && !args.has("caption") && !args.has("columns")) {
+    image = std::move(cells[0].first);
+  } else {
+    int columns = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(cells.size()))));
+    if (auto c = args.get("columns")) {
+      const long long n = parse_int(*c, "--columns");
+      if (n < 1 || n > 1000) throw InvalidInput("--columns: must be 1..1000");
+      columns = static_cast<int>(n);
+    }
+    ContactSheetOptions sheet;
+    sheet.background = base.background;
+    // Captions at double size when they all fit their cells, else at the font's own size.
+    int cell_width = 0;
+    for (const auto& cell : cells) cell_width = std::max(cell_width, cell.first.width);
+    for (const auto& cell : cells)
+      if (text_width(cell.second, 2) > cell_width + sheet.padding) sheet.text_scale = 1;
+    const double luma =
+        0.3 * base.background[0] + 0.59 * base.background[1] + 0.11 * base.background[2];
+    if (luma < 128) sheet.text_color = {230, 230, 230};  // light text on a dark sheet
+    image = contact_sheet(cells, columns, sheet);
+  }
+  write_png(*out, image);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("%s: %dx%d, %zu cell(s), %zu faces, %.2f s\n", out->c_str(), image.width,
+              image.height, cells.size(), faces, seconds);
+  return 0;
+}
+
 }  // namespace qjulia::cli

@@ -22,7 +22,8 @@ void ProgressBar::update(const std::string& stage, double fraction) {
   const int percent = static_cast<int>(fraction * 100.0 + 0.5);
   const auto now = std::chrono::steady_clock::now();
   // Redraw on a new stage, or at most every 50 ms.
-  if (stage == stage_ && (percent == last_percent_ || now - last_draw_ < std::chrono::milliseconds(50)))
+  if (stage == stage_ &&
+      (percent == last_percent_ || now - last_draw_ < std::chrono::milliseconds(50)))
     return;
   stage_ = stage;
   last_percent_ = percent;

@@ -12,9 +12,9 @@ namespace qjulia {
 
 /// What one orbit did.
 struct Orbit {
-  float field = 0;    ///< continuous F: < 0 in the solid, > 0 outside, never NaN
-  int exit_step = -1; ///< step n at which the orbit escaped / converged; -1 if it never did
-  Quat last;          ///< the last finite iterate
+  float field = 0;     ///< continuous F: < 0 in the solid, > 0 outside, never NaN
+  int exit_step = -1;  ///< step n at which the orbit escaped / converged; -1 if it never did
+  Quat last;           ///< the last finite iterate
 };
 
 /// Classifies sampled points (x, y, z) for a validated parameter set. Thread-safe, cheap to

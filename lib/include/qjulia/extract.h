@@ -14,7 +14,7 @@ namespace qjulia {
 /// Options of extract().
 struct ExtractOptions {
   /// Stop refining a vertex when its bracket on the edge is shorter than this, in voxels.
-  double tolerance = 0.01;
+  double tolerance = 0.02;
   /// At most this many classifier calls per vertex.
   int max_refine_steps = 24;
   /// Per-vertex colours (left empty for kNone).

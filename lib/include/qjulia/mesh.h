@@ -11,10 +11,10 @@ namespace qjulia {
 /// An indexed triangle mesh in slice coordinates (x, y, z as sampled), counter-clockwise seen
 /// from outside (outward normals).
 struct TriMesh {
-  std::vector<std::array<float, 3>> positions;      ///< #V by 3
-  std::vector<std::array<uint32_t, 3>> triangles;   ///< #F by 3 vertex indices
-  std::vector<std::array<float, 3>> normals;        ///< empty or #V unit normals
-  std::vector<std::array<float, 3>> colors;         ///< empty or #V linear RGB in [0, 1]
+  std::vector<std::array<float, 3>> positions;     ///< #V by 3
+  std::vector<std::array<uint32_t, 3>> triangles;  ///< #F by 3 vertex indices
+  std::vector<std::array<float, 3>> normals;       ///< empty or #V unit normals
+  std::vector<std::array<float, 3>> colors;        ///< empty or #V linear RGB in [0, 1]
 
   std::size_t vertex_count() const { return positions.size(); }
   std::size_t face_count() const { return triangles.size(); }
@@ -32,22 +32,22 @@ struct ComponentMeasure {
 
 /// Topology and geometry of a mesh.
 struct MeshMeasure {
-  std::size_t vertices = 0;               ///< referenced vertices
+  std::size_t vertices = 0;  ///< referenced vertices
   std::size_t faces = 0;
   std::size_t edges = 0;
-  std::size_t boundary_edges = 0;         ///< edges with one face
-  std::size_t nonmanifold_edges = 0;      ///< edges with more than two faces
-  std::size_t nonmanifold_vertices = 0;   ///< vertices whose faces form more than one fan
-  std::size_t misoriented_edges = 0;      ///< edges whose two faces traverse it the same way
-  std::size_t degenerate_faces = 0;       ///< repeated index or zero area
-  bool closed = false;                    ///< no boundary and no non-manifold edge
-  bool manifold = false;                  ///< no non-manifold edge or vertex
-  bool oriented = false;                  ///< no misoriented edge
-  double volume = 0;                      ///< signed (divergence theorem), > 0 when outward
+  std::size_t boundary_edges = 0;        ///< edges with one face
+  std::size_t nonmanifold_edges = 0;     ///< edges with more than two faces
+  std::size_t nonmanifold_vertices = 0;  ///< vertices whose faces form more than one fan
+  std::size_t misoriented_edges = 0;     ///< edges whose two faces traverse it the same way
+  std::size_t degenerate_faces = 0;      ///< repeated index or zero area
+  bool closed = false;                   ///< no boundary and no non-manifold edge
+  bool manifold = false;                 ///< no non-manifold edge or vertex
+  bool oriented = false;                 ///< no misoriented edge
+  double volume = 0;                     ///< signed (divergence theorem), > 0 when outward
   double area = 0;
   std::array<double, 3> bbox_min{0, 0, 0};
   std::array<double, 3> bbox_max{0, 0, 0};
-  long long euler = 0;                    ///< V - E + F over the whole mesh
+  long long euler = 0;                       ///< V - E + F over the whole mesh
   std::vector<ComponentMeasure> components;  ///< sorted by decreasing face count
 };
 

@@ -59,19 +59,19 @@ enum class ColorMode { kNone, kIterations, kBasin };
 
 /// Options of the stages after sampling (the "mesh" section of the parameter file).
 struct MeshParams {
-  ColorMode color = ColorMode::kNone;        ///< COLOR_0 / vertex colours
-  std::optional<long long> faces;            ///< decimate to at most this many faces
-  std::optional<double> max_error;           ///< decimation error bound, model units
-  std::optional<double> min_component;       ///< drop components below this volume (model
-                                             ///< units^3); unset = the default of clean()
-  std::vector<ClipPlane> clip;               ///< sections, applied to the field before meshing
+  ColorMode color = ColorMode::kNone;   ///< COLOR_0 / vertex colours
+  std::optional<long long> faces;       ///< decimate to at most this many faces
+  std::optional<double> max_error;      ///< decimation error bound, model units
+  std::optional<double> min_component;  ///< drop components below this volume (model
+                                        ///< units^3); unset = the default of clean()
+  std::vector<ClipPlane> clip;          ///< sections, applied to the field before meshing
 };
 
 /// Options for 3D printing (the "print" section of the parameter file).
 struct PrintParams {
-  std::optional<double> size_mm;            ///< scale so the longest side is this long, in mm
-  std::optional<double> min_thickness_mm;   ///< thicken parts thinner than this, in mm
-  bool check = false;                       ///< run the self-intersection test
+  std::optional<double> size_mm;           ///< scale so the longest side is this long, in mm
+  std::optional<double> min_thickness_mm;  ///< thicken parts thinner than this, in mm
+  bool check = false;                      ///< run the self-intersection test
 };
 
 /// A complete parameter set. Every field has the default of the built-in Newton cubic.
@@ -82,12 +82,12 @@ struct Params {
   std::vector<std::pair<std::string, Quat>> constants;
   Mode mode = Mode::kJulia;
   Method method = Method::kCutoff;
-  int iterations = 12;     ///< N, 1..100000
-  double bailout = 0.01;   ///< R > 0 (bailout radius or cut-off rate)
-  Quat start;              ///< h0 in Mandelbrot mode
+  int iterations = 12;    ///< N, 1..100000
+  double bailout = 0.01;  ///< R > 0 (bailout radius or cut-off rate)
+  Quat start;             ///< h0 in Mandelbrot mode
   Slice slice;
   Bounds bounds;
-  int resolution = 256;    ///< voxels along the longest side of the box, 1..4096
+  int resolution = 256;  ///< voxels along the longest side of the box, 1..4096
   MeshParams mesh;
   PrintParams print;
 

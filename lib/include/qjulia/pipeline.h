@@ -30,20 +30,24 @@ struct PipelineOptions {
 
 /// Figures of one run, the content of --stats.
 struct RunStats {
-  std::uint64_t evaluations = 0;        ///< classifier calls: sampling + refinement + colours
-  std::uint64_t sample_evaluations = 0; ///< classifier calls of the sampling stage alone
-  std::uint64_t dense_evaluations = 0;  ///< grid points a dense grid has
+  /// Classifier calls that filled the grid (the sampling stage); compare with
+  /// dense_evaluations, the calls a dense grid needs.
+  std::uint64_t evaluations = 0;
+  /// Classifier calls that moved vertices onto the boundary and coloured them (the same for a
+  /// sparse and a dense grid).
+  std::uint64_t refine_evaluations = 0;
+  std::uint64_t dense_evaluations = 0;  ///< grid points of a dense grid
   std::uint64_t crossing_cells = 0;
   double voxel_size = 0;
   std::array<int, 3> grid_points{0, 0, 0};
-  MeshMeasure measure;                  ///< of the final mesh
+  MeshMeasure measure;                                  ///< of the final mesh
   std::vector<std::pair<std::string, double>> timings;  ///< seconds per stage, in order
   std::size_t peak_rss_bytes = 0;
   std::optional<CleanReport> clean;
   std::optional<DecimateReport> decimate;
   std::optional<std::size_t> self_intersections;
-  double scale = 1.0;                   ///< factor applied by print.size_mm
-  std::string unit;                     ///< "mm" when scaled for printing
+  double scale = 1.0;  ///< factor applied by print.size_mm
+  std::string unit;    ///< "mm" when scaled for printing
 };
 
 /// The result of run_pipeline().

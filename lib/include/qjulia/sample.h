@@ -12,11 +12,11 @@
 namespace qjulia {
 
 /// Where the grid points of a parameter set are: point (i, j, k) is at origin + (i, j, k) *
-/// voxel for 0 <= i < points[0] etc.; the last point of an axis may lie beyond bounds.max (then
-/// it is outside the box).
+/// voxel for 0 <= i < points[0] etc., at the centres of voxels of the box, so the walls of the
+/// box lie half a voxel beyond the outermost points.
 struct GridGeometry {
-  std::array<double, 3> origin{0, 0, 0};
-  double voxel = 1.0;               ///< longest side of the box / resolution
+  std::array<double, 3> origin{0, 0, 0};  ///< bounds.min + voxel / 2
+  double voxel = 1.0;                     ///< longest side of the box / resolution
   std::array<int, 3> points{0, 0, 0};
 };
 
@@ -28,14 +28,13 @@ struct SampleOptions {
   /// Evaluate every grid point instead of refining coarse blocks (the validation path).
   bool dense = false;
   /// Side of the coarse blocks, in voxels (a power of two, 2..64).
-  int coarse_block = 8;
+  int coarse_block = 16;
   /// Progress in [0, 1]; return false to cancel.
   ProgressFn progress;
 };
 
-/// The sampled field. Grid point (i, j, k) sits at bounds.min + (i, j, k) * voxel_size; points
-/// beyond bounds.max are outside the box. Evaluated points hold F; uniform regions are inactive
-/// tiles whose value has the right sign.
+/// The sampled field on the points of grid_geometry(params). Evaluated points hold F; uniform
+/// regions are inactive tiles whose value has the right sign.
 class SampledGrid {
  public:
   SampledGrid();
@@ -44,8 +43,8 @@ class SampledGrid {
   SampledGrid& operator=(SampledGrid&&) noexcept;
 
   double voxel_size() const;                ///< model units
-  std::array<double, 3> origin() const;     ///< bounds.min
-  std::array<int, 3> points() const;        ///< grid points per axis (incl. both walls)
+  std::array<double, 3> origin() const;     ///< position of point (0, 0, 0)
+  std::array<int, 3> points() const;        ///< grid points per axis
   std::uint64_t evaluations() const;        ///< classifier calls made by sample()
   std::uint64_t dense_evaluations() const;  ///< points a dense grid has
   std::uint64_t crossing_cells() const;     ///< cells whose corners differ in sign

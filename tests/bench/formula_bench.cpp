@@ -1,0 +1,63 @@
+// Formula evaluation cost. Not a test (nothing is asserted): build and run with
+//   cmake --build build --target formula_bench && build/tests/formula_bench
+// Times are CPU time of this process, so other load on the machine inflates them less.
+#include <cstdio>
+#include <ctime>
+#include <string>
+#include <vector>
+
+#include "qjulia/formula.h"
+
+namespace {
+
+double cpu_seconds() {
+  timespec ts;
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+}  // namespace
+
+int main() {
+  using qjulia::Formula;
+  using qjulia::Quat;
+  const Quat constants[] = {Quat(0.1, 0.2, 0.3, 0.4), Quat(0.5, 0.1, 0, 0), Quat(-0.2, 0, 0.1, 0)};
+  const int n = 10000000;
+  std::printf("%-28s %4s %14s %14s\n", "formula", "ops", "ns/eval", "ns/orbit step");
+  for (const char* text :
+       {"h^2 + c", "p*h^2 + q", "(2*h^3+1)/(3*h^2)", "(h^4 - 1)/(4*h^3)*c + h"}) {
+    const Formula f = Formula::compile(text, {"c", "p", "q"});
+    // Independent evaluations (throughput), as when sampling many points.
+    Quat h(0.3, -0.7, 0.4, 1.1), sum;
+    double t0 = cpu_seconds();
+    for (int k = 0; k < n; ++k) {
+      h.w += 1e-9;
+      sum = sum + f.eval(h, constants);
+    }
+    const double independent = (cpu_seconds() - t0) * 1e9 / n;
+    // Dependent evaluations h <- f(h) (latency), as along one orbit.
+    t0 = cpu_seconds();
+    for (int k = 0; k < n / 20; ++k) {
+      Quat g(0.3 + 1e-7 * k, -0.7, 0.4, 1.1);
+      for (int s = 0; s < 20; ++s) g = f.eval(g, constants);
+      sum = sum + g;
+    }
+    const double dependent = (cpu_seconds() - t0) * 1e9 / n;
+    std::printf("%-28s %4zu %14.1f %14.1f   (checksum %g)\n", text, f.operation_count(),
+                independent, dependent, sum.w);
+  }
+  // The Newton map written by hand with quaternion.h, the floor an interpreter can approach.
+  Quat sum;
+  const double t0 = cpu_seconds();
+  for (int k = 0; k < n / 20; ++k) {
+    Quat g(0.3 + 1e-7 * k, -0.7, 0.4, 1.1);
+    for (int s = 0; s < 20; ++s) {
+      const Quat g2 = sqr(g);
+      g = (2.0 * (g2 * g) + Quat(1)) * inv(3.0 * g2);
+    }
+    sum = sum + g;
+  }
+  std::printf("%-28s %4s %14s %14.1f   (checksum %g)\n", "Newton by hand", "", "",
+              (cpu_seconds() - t0) * 1e9 / n, sum.w);
+  return 0;
+}

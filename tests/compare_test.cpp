@@ -1,0 +1,382 @@
+// compare: distances between surfaces with known answers (identical, refined, shifted meshes),
+// and the `qjulia compare` / `qjulia experiment` commands end to end.
+#include "qjulia/compare.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <utility>
+
+#include "qjulia/error.h"
+#include "qjulia/export.h"
+#include "qjulia/params.h"
+#include "qjulia/pipeline.h"
+
+namespace {
+
+using qjulia::TriMesh;
+
+// An icosphere of radius 1: the icosahedron subdivided `level` times, projected on the sphere.
+TriMesh icosphere(int level) {
+  const float t = (1.0f + std::sqrt(5.0f)) / 2;
+  TriMesh m;
+  m.positions = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
+                 {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
+  m.triangles = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
+                 {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                 {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
+                 {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
+  auto normalize = [](std::array<float, 3>& p) {
+    const float n = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+    for (auto& x : p) x /= n;
+  };
+  for (auto& p : m.positions) normalize(p);
+  for (int l = 0; l < level; ++l) {
+    std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
+    auto midpoint = [&](uint32_t a, uint32_t b) {
+      const auto key = std::minmax(a, b);
+      auto it = mid.find(key);
+      if (it != mid.end()) return it->second;
+      std::array<float, 3> p;
+      for (int k = 0; k < 3; ++k) p[k] = (m.positions[a][k] + m.positions[b][k]) / 2;
+      normalize(p);
+      m.positions.push_back(p);
+      const uint32_t index = static_cast<uint32_t>(m.positions.size() - 1);
+      mid.emplace(key, index);
+      return index;
+    };
+    std::vector<std::array<uint32_t, 3>> next;
+    for (const auto& f : m.triangles) {
+      const uint32_t ab = midpoint(f[0], f[1]), bc = midpoint(f[1], f[2]),
+                     ca = midpoint(f[2], f[0]);
+      next.push_back({f[0], ab, ca});
+      next.push_back({f[1], bc, ab});
+      next.push_back({f[2], ca, bc});
+      next.push_back({ab, bc, ca});
+    }
+    m.triangles = std::move(next);
+  }
+  return m;
+}
+
+// The unit cube [0, 1]^3, outward, 12 triangles.
+TriMesh cube() {
+  TriMesh m;
+  for (int i = 0; i < 8; ++i)
+    m.positions.push_back(
+        {static_cast<float>(i & 1), static_cast<float>((i >> 1) & 1), static_cast<float>(i >> 2)});
+  m.triangles = {{0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}, {0, 1, 5}, {0, 5, 4},
+                 {2, 6, 7}, {2, 7, 3}, {0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}};
+  return m;
+}
+
+TriMesh shifted(TriMesh m, float dx, float dy, float dz) {
+  for (auto& p : m.positions) {
+    p[0] += dx;
+    p[1] += dy;
+    p[2] += dz;
+  }
+  return m;
+}
+
+// The longest edge of a mesh.
+double max_edge(const TriMesh& m) {
+  double e = 0;
+  for (const auto& f : m.triangles)
+    for (int k = 0; k < 3; ++k) {
+      const auto &a = m.positions[f[k]], &b = m.positions[f[(k + 1) % 3]];
+      e = std::max(e, std::hypot(double(a[0] - b[0]), double(a[1] - b[1]), double(a[2] - b[2])));
+    }
+  return e;
+}
+
+qjulia::CompareOptions small_options() {
+  qjulia::CompareOptions o;
+  o.samples = 200000;
+  return o;
+}
+
+}  // namespace
+
+TEST(Compare, IdenticalMeshesCompareAtDistanceZero) {
+  const TriMesh sphere = icosphere(3);
+  const auto r = qjulia::compare(sphere, sphere, small_options());
+  EXPECT_LT(r.hausdorff, 1e-6);
+  EXPECT_LT(r.a_to_b.mean, 1e-7);
+  EXPECT_LT(r.b_to_a.rms, 1e-7);
+  EXPECT_EQ(r.a_to_b.samples, small_options().samples);  // the vertices count towards them
+  ASSERT_EQ(r.a_vertex_distance.size(), sphere.vertex_count());
+  for (float d : r.a_vertex_distance) EXPECT_EQ(d, 0.0f);
+}
+
+TEST(Compare, UnitSphereAtTwoResolutionsComparesWithinOneEdgeOfTheCoarser) {
+  const TriMesh coarse = icosphere(2), fine = icosphere(5);
+  const double edge = max_edge(coarse);
+  const auto r = qjulia::compare(coarse, fine, small_options());
+  EXPECT_GT(r.hausdorff, 0.0);
+  EXPECT_LT(r.hausdorff, edge);
+  // Both inscribed in the unit sphere: the coarse one lies inside the fine one, farthest at
+  // face centres, where it is at most the sagitta of its edges away.
+  EXPECT_LT(r.hausdorff, edge * edge / 2);
+  EXPECT_LE(r.a_to_b.mean, r.a_to_b.rms);
+  EXPECT_LE(r.a_to_b.rms, r.a_to_b.max);
+  EXPECT_DOUBLE_EQ(r.hausdorff, std::max(r.a_to_b.max, r.b_to_a.max));
+}
+
+TEST(Compare, ShiftedCubeComparesExactlyAtTheShift) {
+  // The corner (1,1,1) + s moves farthest from the unit cube: the distance is |s|, exactly.
+  const TriMesh a = cube();
+  const float s = 0.1f;
+  const auto r = qjulia::compare(a, shifted(a, s, s, s), small_options());
+  EXPECT_NEAR(r.hausdorff, std::sqrt(3.0) * s, 1e-6);
+  EXPECT_NEAR(r.a_to_b.max, std::sqrt(3.0) * s, 1e-6);
+  EXPECT_NEAR(r.b_to_a.max, std::sqrt(3.0) * s, 1e-6);
+}
+
+TEST(Compare, ShiftedSphereComparesAtTheShiftWithinSamplingTolerance) {
+  // For the exact sphere the distance to a copy shifted by s is |s|. The icosphere is within
+  // its sagitta e of the sphere, and the samples are about `gap` apart.
+  const TriMesh a = icosphere(4);
+  const double edge = max_edge(a), sagitta = edge * edge / 2, gap = edge / 4;
+  const float s = 0.05f;
+  const auto r = qjulia::compare(a, shifted(a, s, 0, 0), small_options());
+  EXPECT_LE(r.hausdorff, s + 2 * sagitta);
+  EXPECT_GE(r.hausdorff, s - 2 * sagitta - gap);
+  EXPECT_LT(r.a_to_b.mean, s);  // most of the surface moves less than the shift
+  EXPECT_GT(r.a_to_b.mean, 0.25 * s);
+}
+
+TEST(Compare, TheSameInputGivesTheSameResult) {
+  const TriMesh a = icosphere(3), b = shifted(icosphere(2), 0.02f, -0.01f, 0.03f);
+  const auto r1 = qjulia::compare(a, b, small_options());
+  const auto r2 = qjulia::compare(a, b, small_options());
+  EXPECT_EQ(r1.hausdorff, r2.hausdorff);
+  EXPECT_EQ(r1.a_to_b.mean, r2.a_to_b.mean);
+  EXPECT_EQ(r1.b_to_a.rms, r2.b_to_a.rms);
+  EXPECT_EQ(r1.a_vertex_distance, r2.a_vertex_distance);
+}
+
+TEST(Compare, MeasuresBothSurfaces) {
+  const TriMesh a = cube(), b = icosphere(3);
+  const auto r = qjulia::compare(a, b, small_options());
+  EXPECT_EQ(r.a.faces, 12u);
+  EXPECT_EQ(r.a.vertices, 8u);
+  EXPECT_NEAR(r.a.volume, 1.0, 1e-6);
+  EXPECT_NEAR(r.a.area, 6.0, 1e-6);
+  EXPECT_EQ(r.b.faces, b.face_count());
+  EXPECT_EQ(qjulia::genus_summary(r.a), "genus 0 x1");
+}
+
+TEST(Compare, AnEmptyOrBrokenMeshIsInvalidInput) {
+  const TriMesh empty;
+  EXPECT_THROW(qjulia::compare(empty, cube()), qjulia::InvalidInput);
+  EXPECT_THROW(qjulia::compare(cube(), empty), qjulia::InvalidInput);
+  TriMesh broken = cube();
+  broken.triangles[3][1] = 99;
+  EXPECT_THROW(qjulia::compare(broken, cube()), qjulia::InvalidInput);
+  TriMesh nan = cube();
+  nan.positions[2][1] = std::nanf("");
+  EXPECT_THROW(qjulia::compare(cube(), nan), qjulia::InvalidInput);
+}
+
+TEST(Compare, ProgressCanCancel) {
+  auto o = small_options();
+  o.progress = [](double f) { return f < 0.5; };
+  EXPECT_THROW(qjulia::compare(icosphere(4), icosphere(3), o), qjulia::Cancelled);
+}
+
+TEST(Compare, DistanceColorsRampFromBlueToRed) {
+  const auto c = qjulia::distance_colors({0.0f, 0.5f, 1.0f, 2.0f, -1.0f}, 0.0, 1.0);
+  ASSERT_EQ(c.size(), 5u);
+  EXPECT_GT(c[0][2], c[0][0]);  // low: blue
+  EXPECT_GT(c[2][0], c[2][2]);  // high: red
+  EXPECT_EQ(c[3], c[2]);        // clamped
+  EXPECT_EQ(c[4], c[0]);
+  for (const auto& rgb : c)
+    for (float x : rgb) {
+      EXPECT_GE(x, 0.0f);
+      EXPECT_LE(x, 1.0f);
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The methods compared: the escape method fails on Newton's cubic (DESIGN.md; the paper's
+// table 1). Its solid is the bailout ball with holes, the cut-off solid a thin shell around J.
+
+TEST(Compare, UnitBallMeshedAtTwoResolutionsComparesWithinOneVoxelOfTheCoarser) {
+  qjulia::Params coarse = qjulia::preset("unit-ball"), fine = coarse;
+  coarse.resolution = 24;
+  fine.resolution = 48;
+  const TriMesh a = qjulia::run_pipeline(coarse).mesh, b = qjulia::run_pipeline(fine).mesh;
+  const double voxel = (coarse.bounds.max[0] - coarse.bounds.min[0]) / coarse.resolution;
+  const auto r = qjulia::compare(a, b, small_options());
+  EXPECT_GT(r.hausdorff, 0.0);
+  EXPECT_LT(r.hausdorff, voxel);
+  EXPECT_NEAR(r.a.volume, 4.0 / 3 * M_PI, 0.05 * 4.0 / 3 * M_PI);
+}
+
+TEST(Compare, EscapeMethodOnNewtonsCubicIsFarFromTheCutOffSurface) {
+  qjulia::Params cut = qjulia::preset("newton-cubic"), esc = qjulia::preset("newton-escape");
+  cut.resolution = esc.resolution = 32;
+  const TriMesh a = qjulia::run_pipeline(cut).mesh, b = qjulia::run_pipeline(esc).mesh;
+  ASSERT_GT(a.face_count(), 0u);
+  ASSERT_GT(b.face_count(), 0u);
+  const auto r = qjulia::compare(a, b, small_options());
+  // The escape solid fills most of the ball of radius 2 (volume 33.5); the shell is thin.
+  EXPECT_GT(r.b.volume, 4 * r.a.volume);
+  EXPECT_GT(r.b.volume, 0.5 * 4.0 / 3 * M_PI * 8);
+  // Its outer surface, the bailout sphere, passes through the basins far from J: many voxels.
+  const double voxel = 4.0 / 32;
+  EXPECT_GT(r.hausdorff, 4 * voxel);
+  EXPECT_GT(r.b_to_a.mean, voxel);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The command line, run as a separate process.
+
+namespace {
+
+struct CliRun {
+  int exit_code;
+  std::string output;  // stdout and stderr
+};
+
+CliRun run_cli(const std::string& args) {
+  const std::string cmd = std::string(QJULIA_CLI) + " " + args + " 2>&1";
+  FILE* pipe = popen(cmd.c_str(), "r");
+  CliRun r{-1, ""};
+  if (!pipe) return r;
+  char buf[4096];
+  std::size_t n;
+  while ((n = fread(buf, 1, sizeof buf, pipe)) > 0) r.output.append(buf, n);
+  const int status = pclose(pipe);
+  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+std::filesystem::path scratch_dir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / ("qjulia_compare_test_" + name);
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+}  // namespace
+
+TEST(CompareCli, GarbageMeshFileExitsTwoNamingTheFileAndTheReason) {
+  const auto dir = scratch_dir("garbage");
+  const std::string garbage = (dir / "garbage.obj").string();
+  std::ofstream(garbage) << "this is not a mesh\n\x01\x02\x03";
+  const auto r = run_cli("compare " + garbage + " " + garbage);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  const auto at = r.output.find(garbage + ":");
+  ASSERT_NE(at, std::string::npos) << r.output;
+  EXPECT_GT(r.output.size(), at + garbage.size() + 3) << "no reason given: " << r.output;
+}
+
+TEST(CompareCli, MissingMeshFileExitsTwoNamingTheFile) {
+  const auto dir = scratch_dir("missing");
+  const std::string missing = (dir / "nowhere.ply").string();
+  const auto r = run_cli("compare " + missing + " " + missing);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find(missing + ": cannot open"), std::string::npos) << r.output;
+}
+
+TEST(CompareCli, NeedsExactlyTwoSurfaces) {
+  const auto r = run_cli("compare --preset newton-cubic");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("needs two surfaces"), std::string::npos) << r.output;
+  EXPECT_EQ(run_cli("compare --preset newton-cubic --preset no-such-preset").exit_code, 2);
+}
+
+TEST(CompareCli, TwoPresetsGiveATableAndJson) {
+  const auto dir = scratch_dir("presets");
+  const std::string json = (dir / "c.json").string();
+  const auto r = run_cli(
+      "compare --preset newton-cubic --preset newton-escape --resolution 24 --samples 20000 "
+      "--quiet --json " +
+      json);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("preset newton-cubic"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("Hausdorff distance"), std::string::npos) << r.output;
+  std::ifstream in(json);
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_NE(text.str().find("\"hausdorff\""), std::string::npos);
+  EXPECT_NE(text.str().find("\"b_name\": \"preset newton-escape\""), std::string::npos);
+}
+
+TEST(ExperimentCli, CardioidDistanceShrinksAsIterationsGrow) {
+  const auto dir = scratch_dir("cardioid");
+  const auto r = run_cli(
+      "experiment cardioid --resolution 32 --iterations 6,16 --samples 20000 "
+      "--out " +
+      dir.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in(dir / "cardioid.csv");
+  std::string header, row6, row16;
+  std::getline(in, header);
+  std::getline(in, row6);
+  std::getline(in, row16);
+  auto column = [&](const std::string& row, const std::string& name) {
+    std::vector<std::string> names, values;
+    std::stringstream h(header), v(row);
+    std::string cell;
+    while (std::getline(h, cell, ',')) names.push_back(cell);
+    while (std::getline(v, cell, ',')) values.push_back(cell);
+    for (std::size_t i = 0; i < names.size() && i < values.size(); ++i)
+      if (names[i] == name) return std::stod(values[i]);
+    ADD_FAILURE() << "no column " << name << " in " << row;
+    return 0.0;
+  };
+  EXPECT_EQ(column(row6, "iterations"), 6);
+  EXPECT_EQ(column(row16, "iterations"), 16);
+  // Both approximations close in on J: the escape solid shrinks, the cut-off hole grows, and
+  // the surfaces come together.
+  EXPECT_LT(column(row16, "hausdorff"), column(row6, "hausdorff"));
+  EXPECT_LT(column(row16, "escape_volume"), column(row6, "escape_volume"));
+  EXPECT_GT(column(row16, "cutoff_volume"), column(row6, "cutoff_volume"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "cardioid.md"));
+}
+
+TEST(ExperimentCli, UnknownExperimentExitsTwo) {
+  const auto r = run_cli("experiment table9");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("table9"), std::string::npos) << r.output;
+}
+
+TEST(CompareCli, ColoredWritesAWithItsDistanceRampAndTheLegend) {
+  const auto dir = scratch_dir("colored");
+  const std::string a = (dir / "a.ply").string(), b = (dir / "b.ply").string(),
+                    out = (dir / "colored.ply").string();
+  try {
+    qjulia::write_mesh(a, icosphere(3));
+    qjulia::write_mesh(b, shifted(icosphere(3), 0.1f, 0, 0));
+  } catch (const std::runtime_error& e) {
+    GTEST_SKIP() << "write_mesh is not available yet: " << e.what();
+  }
+  const auto r = run_cli("compare " + a + " " + b + " --samples 20000 --quiet --colored " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const TriMesh colored = qjulia::read_mesh(out);
+  EXPECT_EQ(colored.vertex_count(), icosphere(3).vertex_count());
+  ASSERT_EQ(colored.colors.size(), colored.vertex_count());
+  // Against the sphere shifted along x, the poles on the x axis move by the shift (red), the
+  // circle x = 0 hardly at all (blue).
+  std::size_t pole = 0, equator = 0;
+  for (std::size_t v = 0; v < colored.vertex_count(); ++v) {
+    if (colored.positions[v][0] > colored.positions[pole][0]) pole = v;
+    if (std::abs(colored.positions[v][0]) < std::abs(colored.positions[equator][0])) equator = v;
+  }
+  EXPECT_GT(colored.colors[pole][0], colored.colors[pole][2]);
+  EXPECT_GT(colored.colors[equator][2], colored.colors[equator][0]);
+  std::ifstream in(out, std::ios::binary);
+  std::stringstream bytes;
+  bytes << in.rdbuf();
+  EXPECT_NE(bytes.str().find("legend_max"), std::string::npos);
+}

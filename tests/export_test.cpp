@@ -1,0 +1,417 @@
+// Round trips through every writer and reader, and the failure paths of write_mesh/read_mesh.
+#include "qjulia/export.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <set>
+
+#include "qjulia/error.h"
+
+namespace fs = std::filesystem;
+using qjulia::InvalidInput;
+using qjulia::MeshFormat;
+using qjulia::TriMesh;
+
+namespace {
+
+/// An icosphere of radius 1 (closed, outward), `level` times subdivided: 20 * 4^level faces.
+TriMesh icosphere(int level) {
+  const float t = (1.0f + std::sqrt(5.0f)) / 2.0f;
+  TriMesh m;
+  m.positions = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
+                 {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
+  m.triangles = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
+                 {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                 {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
+                 {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
+  auto normalize = [](std::array<float, 3> p) {
+    const float l = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
+    return std::array<float, 3>{p[0] / l, p[1] / l, p[2] / l};
+  };
+  for (auto& p : m.positions) p = normalize(p);
+  for (int l = 0; l < level; ++l) {
+    std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
+    auto midpoint = [&](uint32_t a, uint32_t b) {
+      const auto key = std::minmax(a, b);
+      const auto it = mid.find(key);
+      if (it != mid.end()) return it->second;
+      const auto& p = m.positions[a];
+      const auto& q = m.positions[b];
+      m.positions.push_back(normalize({p[0] + q[0], p[1] + q[1], p[2] + q[2]}));
+      return mid[key] = uint32_t(m.positions.size() - 1);
+    };
+    std::vector<std::array<uint32_t, 3>> next;
+    for (const auto& f : m.triangles) {
+      const uint32_t a = midpoint(f[0], f[1]), b = midpoint(f[1], f[2]), c = midpoint(f[2], f[0]);
+      next.insert(next.end(), {{f[0], a, c}, {f[1], b, a}, {f[2], c, b}, {a, b, c}});
+    }
+    m.triangles = std::move(next);
+  }
+  return m;
+}
+
+/// Colours from the position, spanning [0, 1] (0 and 1 exactly at the poles).
+void paint(TriMesh& m) {
+  m.colors.clear();
+  for (const auto& p : m.positions) {
+    m.colors.push_back({(p[0] + 1) / 2, (p[1] + 1) / 2, std::abs(p[2])});
+  }
+}
+
+float srgb(float c) {
+  return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
+}
+
+class TempDir {
+ public:
+  TempDir() {
+    path_ = fs::temp_directory_path() /
+            ("qjulia_export_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter_++));
+    fs::create_directories(path_);
+  }
+  ~TempDir() { fs::remove_all(path_); }
+  std::string file(const std::string& name) const { return (path_ / name).string(); }
+  std::size_t entries() const {
+    return std::size_t(std::distance(fs::directory_iterator(path_), fs::directory_iterator()));
+  }
+
+ private:
+  fs::path path_;
+  static inline int counter_ = 0;
+};
+
+const char* kParams = R"({"formula": "h^2", "method": "escape", "iterations": 12,
+  "bailout": 4.0, "constants": {"c": [0.1, -0.2, 0, 0]}, "note": "a \"quoted\"\nline"})";
+
+std::string write_text(const std::string& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+  return path;
+}
+
+/// Triangles as sets of positions (STL has no indices; its vertex order is its own).
+std::multiset<std::array<float, 9>> position_triangles(const TriMesh& m) {
+  std::multiset<std::array<float, 9>> out;
+  for (const auto& t : m.triangles) {
+    std::array<float, 9> k;
+    for (int c = 0; c < 3; ++c)
+      for (int i = 0; i < 3; ++i) k[3 * c + i] = m.positions[t[c]][i];
+    out.insert(k);
+  }
+  return out;
+}
+
+void expect_unit_normals(const TriMesh& m) {
+  ASSERT_EQ(m.normals.size(), m.positions.size());
+  for (const auto& n : m.normals) {
+    EXPECT_NEAR(std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]), 1.0, 1e-6);
+  }
+}
+
+void expect_round_trip(const std::string& ext, bool colored) {
+  TempDir dir;
+  TriMesh mesh = icosphere(3);
+  if (colored) paint(mesh);
+  const std::string path = dir.file("sphere" + ext);
+  qjulia::write_mesh(path, mesh, {kParams, "mm", {}});
+  const TriMesh back = qjulia::read_mesh(path);
+  SCOPED_TRACE(ext);
+  if (ext == ".stl") {
+    // Welded by position: the same vertices and the same triangles, in STL's own order.
+    EXPECT_EQ(back.positions.size(), mesh.positions.size());
+    EXPECT_EQ(position_triangles(back), position_triangles(mesh));
+    return;
+  }
+  ASSERT_EQ(back.positions.size(), mesh.positions.size());
+  if (ext == ".3mf") {
+    // lib3mf 1.8 writes 6 decimals (1e-6 model units, a nanometre in mm).
+    for (std::size_t v = 0; v < mesh.positions.size(); ++v)
+      for (int i = 0; i < 3; ++i) EXPECT_NEAR(back.positions[v][i], mesh.positions[v][i], 1.5e-6);
+  } else {
+    EXPECT_EQ(back.positions, mesh.positions);  // bit-exact: binary, or shortest round-trip text
+  }
+  EXPECT_EQ(back.triangles, mesh.triangles);
+  if (ext != ".3mf") {
+    expect_unit_normals(back);
+    // The writer's normals are area-weighted vertex normals: on a unit sphere close to p.
+    for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
+      const auto& n = back.normals[v];
+      const auto& p = mesh.positions[v];
+      EXPECT_GT(n[0] * p[0] + n[1] * p[1] + n[2] * p[2], 0.99f);
+    }
+  }
+  if (colored && ext != ".3mf") {
+    ASSERT_EQ(back.colors.size(), mesh.colors.size());
+    for (std::size_t v = 0; v < mesh.colors.size(); ++v)
+      for (int i = 0; i < 3; ++i) {
+        // 8-bit formats store sRGB: one step of 1/255 in the encoded value.
+        EXPECT_NEAR(srgb(back.colors[v][i]), srgb(mesh.colors[v][i]), 1.0f / 255 + 1e-5f);
+      }
+  } else {
+    EXPECT_TRUE(back.colors.empty());
+  }
+  EXPECT_EQ(dir.entries(), ext == ".gltf" ? 2u : 1u);  // no temporary file left behind
+}
+
+const std::vector<std::string> kExtensions = {".glb", ".gltf", ".obj", ".ply", ".stl", ".3mf"};
+
+}  // namespace
+
+TEST(Export, FormatIsChosenByExtensionIgnoringCase) {
+  EXPECT_EQ(qjulia::format_from_path("a.glb"), MeshFormat::kGlb);
+  EXPECT_EQ(qjulia::format_from_path("dir.x/a.GLTF"), MeshFormat::kGltf);
+  EXPECT_EQ(qjulia::format_from_path("a.Obj"), MeshFormat::kObj);
+  EXPECT_EQ(qjulia::format_from_path("a.PLY"), MeshFormat::kPly);
+  EXPECT_EQ(qjulia::format_from_path("/x/a.stl"), MeshFormat::kStl);
+  EXPECT_EQ(qjulia::format_from_path("a.3MF"), MeshFormat::k3mf);
+  for (const auto f : {MeshFormat::kGlb, MeshFormat::kGltf, MeshFormat::kObj, MeshFormat::kPly,
+                       MeshFormat::kStl, MeshFormat::k3mf}) {
+    EXPECT_EQ(qjulia::format_from_path(std::string("m") + qjulia::extension_of(f)), f);
+  }
+}
+
+TEST(Export, UnknownExtensionThrowsNamingItAndTheAcceptedOnes) {
+  try {
+    qjulia::format_from_path("mesh.xyz");
+    FAIL() << "no exception";
+  } catch (const InvalidInput& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("unknown output format '.xyz' (use .glb, .gltf, .obj, .ply, .stl or .3mf)"),
+              std::string::npos)
+        << msg;
+  }
+  EXPECT_THROW(qjulia::format_from_path("dir.glb/mesh"), InvalidInput);
+  TempDir dir;
+  EXPECT_THROW(qjulia::write_mesh(dir.file("m.xyz"), icosphere(0)), InvalidInput);
+  EXPECT_EQ(dir.entries(), 0u);
+}
+
+TEST(Export, EveryFormatReadsBackWhatWasWritten) {
+  for (const auto& ext : kExtensions) expect_round_trip(ext, false);
+}
+
+TEST(Export, EveryFormatWithColoursReadsBackWhatWasWritten) {
+  for (const auto& ext : kExtensions) expect_round_trip(ext, true);
+}
+
+TEST(Export, EveryFormatButStlRecordsTheParameters) {
+  const auto expected = nlohmann::json::parse(kParams);
+  for (const auto& ext : kExtensions) {
+    TempDir dir;
+    const std::string path = dir.file("m" + ext);
+    qjulia::write_mesh(path, icosphere(1), {kParams, "mm", {}});
+    const std::string params = qjulia::read_mesh_params(path);
+    if (ext == ".stl") {
+      EXPECT_EQ(params, "");
+    } else {
+      EXPECT_EQ(nlohmann::json::parse(params), expected) << ext << ": " << params;
+    }
+  }
+}
+
+TEST(Export, GltfAssetExtrasIsTheParameterObjectAndGeneratorNamesQjulia) {
+  TempDir dir;
+  const std::string path = dir.file("m.gltf");
+  qjulia::write_mesh(path, icosphere(1), {kParams, "", {}});
+  std::ifstream in(path);
+  const auto doc = nlohmann::json::parse(in);
+  EXPECT_TRUE(doc["asset"]["extras"].is_object());
+  EXPECT_EQ(doc["asset"]["extras"], nlohmann::json::parse(kParams));
+  EXPECT_EQ(doc["asset"]["generator"].get<std::string>().rfind("qjulia ", 0), 0u);
+  EXPECT_EQ(doc["buffers"][0]["uri"], "m.bin");
+  EXPECT_EQ(qjulia::output_files(path), (std::vector<std::string>{path, dir.file("m.bin")}));
+  EXPECT_EQ(qjulia::output_files("a.GLB"), std::vector<std::string>{"a.GLB"});
+  EXPECT_TRUE(fs::exists(dir.file("m.bin")));
+  EXPECT_EQ(doc["meshes"].size(), 1u);
+  EXPECT_EQ(doc["meshes"][0]["primitives"].size(), 1u);
+  EXPECT_FALSE(doc["nodes"][0].contains("matrix"));
+  EXPECT_EQ(doc["materials"][0]["pbrMetallicRoughness"]["metallicFactor"], 0.0);
+}
+
+TEST(Export, StlHeaderNamesQjuliaAndTheUnitAndWeldsBackToTheIndexedMesh) {
+  TempDir dir;
+  const std::string path = dir.file("m.stl");
+  const TriMesh mesh = icosphere(2);
+  qjulia::write_mesh(path, mesh, {"", "mm", {}});
+  std::ifstream in(path, std::ios::binary);
+  std::string header(80, '\0');
+  in.read(header.data(), 80);
+  EXPECT_EQ(header.rfind("qjulia", 0), 0u) << header;
+  EXPECT_NE(header.find("mm"), std::string::npos) << header;
+  EXPECT_EQ(fs::file_size(path), 84 + 50 * mesh.triangles.size());
+  EXPECT_EQ(qjulia::read_mesh(path).positions.size(), mesh.positions.size());
+}
+
+TEST(Export, MissingOrBrokenNormalsAreReplacedByUnitOnes) {
+  // A degenerate triangle (zero area), an isolated vertex, a zero and a NaN given normal.
+  TriMesh m = icosphere(1);
+  const uint32_t a = uint32_t(m.positions.size());
+  m.positions.push_back({5, 5, 5});
+  m.positions.push_back({5, 5, 5});
+  m.positions.push_back({6, 5, 5});  // collinear with the first two: zero area
+  m.positions.push_back({9, 9, 9});  // referenced by no triangle
+  m.triangles.push_back({a, a + 1, a + 2});
+  for (const auto& ext : {".glb", ".ply", ".obj"}) {
+    TempDir dir;
+    qjulia::write_mesh(dir.file(std::string("m") + ext), m);
+    expect_unit_normals(qjulia::read_mesh(dir.file(std::string("m") + ext)));
+  }
+  TriMesh given = m;
+  given.normals.assign(m.positions.size(), {0, 0, 2});
+  given.normals[0] = {0, 0, 0};
+  given.normals[1] = {NAN, 0, 0};
+  TempDir dir;
+  qjulia::write_mesh(dir.file("m.glb"), given);
+  const TriMesh back = qjulia::read_mesh(dir.file("m.glb"));
+  expect_unit_normals(back);
+  EXPECT_EQ(back.normals[2], (std::array<float, 3>{0, 0, 1}));  // given (0,0,2), normalized
+}
+
+TEST(Export, AFailedWriteLeavesNoFile) {
+  TempDir dir;
+  for (const auto& ext : kExtensions) {
+    EXPECT_THROW(qjulia::write_mesh(dir.file("no/such/dir/m" + ext), icosphere(0)), InvalidInput);
+  }
+  TriMesh bad = icosphere(1);
+  bad.triangles[7][1] = uint32_t(bad.positions.size());
+  TriMesh empty;
+  TriMesh wrong_colors = icosphere(1);
+  wrong_colors.colors.resize(3);
+  for (const auto& ext : kExtensions) {
+    try {
+      qjulia::write_mesh(dir.file("m" + ext), bad);
+      ADD_FAILURE() << "no exception for " << ext;
+    } catch (const InvalidInput& e) {
+      EXPECT_NE(std::string(e.what()).find("triangle 7"), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(qjulia::write_mesh(dir.file("m" + ext), empty), InvalidInput);
+    EXPECT_THROW(qjulia::write_mesh(dir.file("m" + ext), wrong_colors), InvalidInput);
+    EXPECT_THROW(qjulia::write_mesh(dir.file("m" + ext), icosphere(0), {"{not json", "", {}}),
+                 InvalidInput);
+  }
+  EXPECT_EQ(dir.entries(), 0u);
+}
+
+TEST(Export, AnExistingFileIsReplacedWhole) {
+  TempDir dir;
+  const std::string path = dir.file("m.ply");
+  write_text(path, std::string(10'000'000, 'x'));
+  qjulia::write_mesh(path, icosphere(1));
+  EXPECT_LT(fs::file_size(path), 10'000u);
+  EXPECT_EQ(qjulia::read_mesh(path).triangles.size(), 80u);
+  EXPECT_EQ(dir.entries(), 1u);
+}
+
+TEST(Export, CancellingBeforeWritingLeavesNoFile) {
+  TempDir dir;
+  qjulia::ExportOptions opts;
+  opts.progress = [](double) { return false; };
+  EXPECT_THROW(qjulia::write_mesh(dir.file("m.glb"), icosphere(1), opts), qjulia::Cancelled);
+  EXPECT_EQ(dir.entries(), 0u);
+}
+
+TEST(Export, GarbageTruncatedOrMissingFilesThrowNamingTheFile) {
+  for (const auto& ext : kExtensions) {
+    SCOPED_TRACE(ext);
+    TempDir dir;
+    auto expect_invalid = [&](const std::string& path) {
+      try {
+        qjulia::read_mesh(path);
+        ADD_FAILURE() << "no exception for " << path;
+      } catch (const InvalidInput& e) {
+        const std::string msg = e.what();
+        EXPECT_EQ(msg.rfind(path + ": ", 0), 0u) << msg;
+        EXPECT_GT(msg.size(), path.size() + 8) << msg;
+      }
+    };
+    expect_invalid(dir.file("missing" + ext));
+    expect_invalid(write_text(dir.file("empty" + ext), ""));
+    expect_invalid(write_text(dir.file("garbage" + ext), std::string(1000, '\x17') + "garbage"));
+    const std::string good = dir.file("good" + ext);
+    qjulia::write_mesh(good, icosphere(2));
+    std::ifstream in(good, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    for (const double keep : {0.5, 0.9}) {
+      if (ext == ".obj" || ext == ".gltf") continue;  // text: a prefix may be a valid file
+      expect_invalid(
+          write_text(dir.file("cut" + ext), bytes.substr(0, std::size_t(bytes.size() * keep))));
+    }
+  }
+  {
+    TempDir dir;  // a .gltf whose .bin is missing or short
+    qjulia::write_mesh(dir.file("m.gltf"), icosphere(2));
+    const auto bin = dir.file("m.bin");
+    fs::resize_file(bin, fs::file_size(bin) / 2);
+    EXPECT_THROW(qjulia::read_mesh(dir.file("m.gltf")), InvalidInput);
+    fs::remove(bin);
+    EXPECT_THROW(qjulia::read_mesh(dir.file("m.gltf")), InvalidInput);
+  }
+  EXPECT_THROW(qjulia::read_mesh("mesh.xyz"), InvalidInput);
+}
+
+TEST(Export, ReadersAcceptOtherProgramsVariants) {
+  TempDir dir;
+  // OBJ: quads, negative indices, v/vt/vn, comments, CRLF.
+  const TriMesh quad = qjulia::read_mesh(
+      write_text(dir.file("q.obj"),
+                 "# cube face\r\nv 0 0 0\r\nv 1 0 0\r\nv 1 1 0\r\nv 0 1 0\r\nvt 0 0\r\nvn 0 0 1\r\n"
+                 "f 1/1/1 2/1/1 3/1/1 4/1/1\r\nf -4 -2 -1\r\n"));
+  EXPECT_EQ(quad.positions.size(), 4u);
+  ASSERT_EQ(quad.triangles.size(), 3u);
+  EXPECT_EQ(quad.triangles[1], (std::array<uint32_t, 3>{0, 2, 3}));
+  EXPECT_EQ(quad.triangles[2], (std::array<uint32_t, 3>{0, 2, 3}));
+  // ASCII PLY with an extra element and a quad.
+  const TriMesh ply = qjulia::read_mesh(write_text(
+      dir.file("a.ply"),
+      "ply\nformat ascii 1.0\ncomment hi\nelement vertex 4\nproperty double x\nproperty double y\n"
+      "property double z\nelement face 1\nproperty list uchar uint vertex_index\n"
+      "element edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n"
+      "0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n0 1\n"));
+  EXPECT_EQ(ply.positions.size(), 4u);
+  EXPECT_EQ(ply.triangles.size(), 2u);
+  // ASCII STL: two triangles sharing an edge weld to 4 vertices.
+  const TriMesh stl = qjulia::read_mesh(write_text(
+      dir.file("a.stl"),
+      "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 1 1 0\n"
+      "endloop\nendfacet\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 1 0\n"
+      "vertex -0 1 0\nendloop\nendfacet\nendsolid t\n"));
+  EXPECT_EQ(stl.positions.size(), 4u);
+  EXPECT_EQ(stl.triangles.size(), 2u);
+}
+
+TEST(Export, CorruptedFilesEitherReadOrThrowInvalidInput) {
+  // A poor man's fuzzer: random byte flips and cuts of valid files must never crash a reader
+  // or throw anything but InvalidInput.
+  std::mt19937 rng(12345);
+  for (const auto& ext : kExtensions) {
+    SCOPED_TRACE(ext);
+    TempDir dir;
+    TriMesh mesh = icosphere(1);
+    paint(mesh);
+    const std::string good = dir.file("good" + ext);
+    qjulia::write_mesh(good, mesh, {kParams, "mm", {}});
+    std::ifstream in(good, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string path = dir.file("bad" + ext);
+    for (int round = 0; round < 150; ++round) {
+      std::string b = bytes;
+      const int flips = 1 + int(rng() % 8);
+      for (int k = 0; k < flips; ++k) b[rng() % b.size()] = char(rng());
+      if (round % 3 == 0) b.resize(rng() % b.size());
+      write_text(path, b);
+      try {
+        const TriMesh m = qjulia::read_mesh(path);
+        for (const auto& t : m.triangles)
+          for (uint32_t i : t) ASSERT_LT(i, m.positions.size());
+        qjulia::read_mesh_params(path);
+      } catch (const InvalidInput&) {
+      }
+    }
+  }
+}

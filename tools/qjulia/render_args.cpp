@@ -1,0 +1,137 @@
+// The command-line options that shape a rendering.
+#include "render_args.h"
+
+#include <cctype>
+#include <cmath>
+#include <tuple>
+
+#include "qjulia/error.h"
+
+namespace qjulia::cli {
+
+std::vector<OptionSpec> render_option_specs(const std::string& prefix) {
+  std::vector<OptionSpec> specs = {
+      {"shading", true},          {"light", true},   {"ambient", true}, {"specular", true},
+      {"shininess", true},        {"rotate", true},  {"size", true},    {"background", true},
+      {"base-color", true},       {"framing", true}, {"margin", true},  {"supersample", true},
+      {"no-vertex-colors", false}};
+  for (auto& s : specs) s.name = prefix + s.name;
+  return specs;
+}
+
+std::string render_options_help(const std::string& prefix) {
+  const std::string p = "  --" + prefix;
+  return p + "shading simple|lambert|phong   flat facets | smooth diffuse | + highlight (phong)\n" +
+         p + "light x,y,z         direction towards a light, view space (x right, y up,\n" +
+         "                          z towards the viewer); repeatable (default -0.5,0.6,1)\n" + p +
+         "ambient A           ambient share 0..1 (0.15)\n" + p +
+         "specular S          highlight strength 0..1 (0.4)\n" + p +
+         "shininess E         Phong exponent 1..10000 (32)\n" + p +
+         "rotate rx,ry,rz     rotation about X, then Y, then Z, degrees (0,0,0)\n" + p +
+         "size WxH            image size in pixels, or N for N x N (800x800)\n" + p +
+         "background COLOR    #rrggbb or r,g,b in 0..255 (#ffffff)\n" + p +
+         "base-color COLOR    surface colour without vertex colours (#ccc7bd)\n" + p +
+         "no-vertex-colors    ignore the mesh's vertex colours\n" + p +
+         "framing box|sphere  fit the projected box (tight) or the bounding sphere\n" +
+         "                          (same scale for every rotation) (box)\n" + p +
+         "margin M            empty border, fraction of the smaller side 0..0.45 (0.05)\n" + p +
+         "supersample N       N x N samples per pixel, 1..8 (1)\n";
+}
+
+std::pair<int, int> parse_image_size(const std::string& text, const std::string& what) {
+  const auto x = text.find_first_of("xX");
+  auto side = [&](const std::string& s) {
+    const long long v = parse_int(s, what);
+    if (v < 1 || v > 16384)
+      throw InvalidInput(what + ": '" + text + "' must be WxH or N with sides in 1..16384");
+    return static_cast<int>(v);
+  };
+  if (x == std::string::npos) {
+    const int n = side(text);
+    return {n, n};
+  }
+  return {side(text.substr(0, x)), side(text.substr(x + 1))};
+}
+
+std::array<std::uint8_t, 3> parse_color(const std::string& text, const std::string& what) {
+  const std::string bad =
+      what + ": '" + text + "' is not a colour (#rrggbb, #rgb or r,g,b with 0..255)";
+  if (!text.empty() && text[0] == '#') {
+    const std::string hex = text.substr(1);
+    if (hex.size() != 6 && hex.size() != 3) throw InvalidInput(bad);
+    for (char c : hex)
+      if (!std::isxdigit(static_cast<unsigned char>(c))) throw InvalidInput(bad);
+    std::array<std::uint8_t, 3> rgb{};
+    for (int k = 0; k < 3; ++k) {
+      const std::string part =
+          hex.size() == 6 ? hex.substr(2 * k, 2) : std::string(2, hex[static_cast<std::size_t>(k)]);
+      rgb[k] = static_cast<std::uint8_t>(std::stoi(part, nullptr, 16));
+    }
+    return rgb;
+  }
+  std::vector<double> v;
+  try {
+    v = parse_doubles(text, 3, what);
+  } catch (const InvalidInput&) {
+    throw InvalidInput(bad);
+  }
+  std::array<std::uint8_t, 3> rgb{};
+  for (int k = 0; k < 3; ++k) {
+    if (!(v[k] >= 0 && v[k] <= 255) || v[k] != std::floor(v[k])) throw InvalidInput(bad);
+    rgb[k] = static_cast<std::uint8_t>(v[k]);
+  }
+  return rgb;
+}
+
+RenderOptions render_options_from_args(const ParsedArgs& args, const std::string& prefix) {
+  RenderOptions o;
+  auto flag = [&](const char* name) { return "--" + prefix + name; };
+  auto get = [&](const char* name) { return args.get(prefix + name); };
+  if (auto s = get("shading")) {
+    if (*s == "simple") {
+      o.shading = Shading::kSimple;
+    } else if (*s == "lambert") {
+      o.shading = Shading::kLambert;
+    } else if (*s == "phong") {
+      o.shading = Shading::kPhong;
+    } else {
+      throw InvalidInput(flag("shading") + ": '" + *s + "' is not simple, lambert or phong");
+    }
+  }
+  for (const std::string& l : args.all(prefix + "light")) {
+    const auto v = parse_doubles(l, 3, flag("light"));
+    o.lights.push_back({v[0], v[1], v[2]});
+  }
+  if (auto s = get("ambient")) o.ambient = parse_double(*s, flag("ambient"));
+  if (auto s = get("specular")) o.specular = parse_double(*s, flag("specular"));
+  if (auto s = get("shininess")) o.shininess = parse_double(*s, flag("shininess"));
+  if (auto s = get("rotate")) {
+    const auto v = parse_doubles(*s, 3, flag("rotate"));
+    o.rotate_deg = {v[0], v[1], v[2]};
+  }
+  if (auto s = get("size")) std::tie(o.width, o.height) = parse_image_size(*s, flag("size"));
+  if (auto s = get("background")) o.background = parse_color(*s, flag("background"));
+  if (auto s = get("base-color")) {
+    const auto c = parse_color(*s, flag("base-color"));
+    o.color = {c[0] / 255.0, c[1] / 255.0, c[2] / 255.0};
+  }
+  if (args.has(prefix + "no-vertex-colors")) o.use_vertex_colors = false;
+  if (auto s = get("framing")) {
+    if (*s == "box") {
+      o.framing = Framing::kBox;
+    } else if (*s == "sphere") {
+      o.framing = Framing::kSphere;
+    } else {
+      throw InvalidInput(flag("framing") + ": '" + *s + "' is not box or sphere");
+    }
+  }
+  if (auto s = get("margin")) o.margin = parse_double(*s, flag("margin"));
+  if (auto s = get("supersample")) {
+    const long long n = parse_int(*s, flag("supersample"));
+    if (n < 1 || n > 8) throw InvalidInput(flag("supersample") + ": must be 1..8");
+    o.supersample = static_cast<int>(n);
+  }
+  return o;
+}
+
+}  // namespace qjulia::cli
