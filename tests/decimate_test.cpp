@@ -151,3 +151,15 @@ TEST(Decimate, RejectsMissingOrNonPositiveBounds) {
   opts.max_error = -1.0;
   EXPECT_THROW(qjulia::decimate(sphere, opts), qjulia::InvalidInput);
 }
+
+TEST(Decimate, UnreferencedVerticesDoNotCountInTheHausdorffDistance) {
+  TriMesh sphere = fixtures::uv_sphere(64, 64);
+  sphere.positions.push_back({100.0f, 0.0f, 0.0f});  // referenced by no face
+  qjulia::DecimateOptions opts;
+  opts.faces = 1000;
+  qjulia::DecimateReport rep;
+  TriMesh out = qjulia::decimate(sphere, opts, &rep);
+  EXPECT_TRUE(fixtures::check(out).closed_manifold_oriented);
+  EXPECT_LT(rep.hausdorff, 0.05);
+  for (const auto& p : out.positions) EXPECT_LT(p[0], 1.5f);
+}

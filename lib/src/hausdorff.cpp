@@ -110,6 +110,13 @@ class StarLocator {
       tbb::parallel_for(std::size_t(0), pos.size(), [&](std::size_t i) {
         entries_[i] = {key_of(d3(pos[i])), static_cast<uint32_t>(i)};
       });
+      // Unreferenced vertices are not on the surface.
+      entries_.erase(std::remove_if(entries_.begin(), entries_.end(),
+                                    [&](const auto& e) {
+                                      return stars_.offsets[e.second] ==
+                                             stars_.offsets[e.second + 1];
+                                    }),
+                     entries_.end());
     }
     tbb::parallel_sort(entries_.begin(), entries_.end());
     // Open-addressing table: cell key -> first entry.
@@ -248,12 +255,14 @@ double one_sided(const TriMesh& from, const TriMesh& to, std::size_t max_samples
   if (total <= 3 * nf) {
     // `from` is at least as fine as `to`: its vertices are the samples (strided to the budget).
     const std::size_t nv = from.positions.size();
+    std::vector<uint8_t> used(nv, 0);  // unreferenced vertices are not part of the surface
+    for (const auto& t : from.triangles) used[t[0]] = used[t[1]] = used[t[2]] = 1;
     const std::size_t vstride = std::max<std::size_t>(1, (nv + max_samples - 1) / max_samples);
     tbb::combinable<double> worst(0.0);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const auto& r) {
       double& w = worst.local();
       for (std::size_t v = r.begin(); v != r.end(); ++v)
-        if (v % vstride == 0) w = std::max(w, locator.distance(d3(from.positions[v])));
+        if (v % vstride == 0 && used[v]) w = std::max(w, locator.distance(d3(from.positions[v])));
     });
     return worst.combine([](double x, double y) { return std::max(x, y); });
   }

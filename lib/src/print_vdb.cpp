@@ -19,6 +19,13 @@ namespace {
 void report_progress(const ProgressFn& progress, double fraction) {
   if (progress && !progress(fraction)) throw Cancelled();
 }
+
+/// Subtracts c from every value of a level set (voxels, tiles and background): the zero level
+/// moves outward by c.
+void shift_values(openvdb::FloatGrid& grid, float c) {
+  for (auto it = grid.tree().beginValueAll(); it; ++it) it.setValue(it.getValue() - c);
+  grid.tree().root().setBackground(grid.background() - c, /*updateChildNodes=*/false);
+}
 }  // namespace
 
 TriMesh thicken(const TriMesh& mesh, const ThickenOptions& opts) {
@@ -53,28 +60,27 @@ TriMesh thicken(const TriMesh& mesh, const ThickenOptions& opts) {
       *xform, points, tris, std::vector<openvdb::Vec4I>(), band, band);
   report_progress(opts.progress, 0.2);
 
-  // Opening: erode by r, dilate by r. What the opening loses (minus a 1.5 voxel margin against
-  // discretisation noise on thick parts) is thinner than min_thickness.
+  // Opening: erode by r (one rebuild at -r), dilate by r. A distance field of the eroded set
+  // minus r is one of the opened set outside it (exact) with the right sign inside, which is all
+  // the CSG below needs, so the dilation is a shift, not a second rebuild; so is the 1.5 voxel
+  // margin that keeps discretisation noise on thick parts out of the thin set.
   const float fr = static_cast<float>(r);
-  FloatGrid::Ptr eroded = openvdb::tools::levelSetRebuild(*solid, -fr, band, band);
-  FloatGrid::Ptr opened = openvdb::tools::levelSetRebuild(*eroded, fr, band, band);
-  eroded.reset();
+  FloatGrid::Ptr opened = openvdb::tools::levelSetRebuild(*solid, -fr, band, 3.0f);
+  shift_values(*opened, fr + static_cast<float>(1.5 * voxel));
   report_progress(opts.progress, 0.4);
-  FloatGrid::Ptr margin =
-      openvdb::tools::levelSetRebuild(*opened, static_cast<float>(1.5 * voxel), band, band);
+  // What the opening loses is thinner than min_thickness.
+  FloatGrid::Ptr thin = openvdb::tools::csgDifferenceCopy(*solid, *opened);
   opened.reset();
-  FloatGrid::Ptr thin = openvdb::tools::csgDifferenceCopy(*solid, *margin);
-  margin.reset();
   // The CSG result is not a distance field of the thin set (near thick walls it is ~the
-  // margin, not far away); re-distance it from its zero level before dilating.
-  thin = openvdb::tools::levelSetRebuild(*thin, 0.0f, band, band);
+  // margin, not far away); re-distance it from its zero level, wide enough to dilate by r.
+  thin = openvdb::tools::levelSetRebuild(*thin, 0.0f, band, 3.0f);
   report_progress(opts.progress, 0.6);
 
-  // Thin parts dilated by r, joined to the solid.
+  // Thin parts dilated by r (a shift of their distance field), joined to the solid.
   FloatGrid::Ptr result = solid;
   if (thin->activeVoxelCount() > 0) {
-    FloatGrid::Ptr grown = openvdb::tools::levelSetRebuild(*thin, fr, 3.0f, 3.0f);
-    openvdb::tools::csgUnion(*result, *grown);
+    shift_values(*thin, fr);
+    openvdb::tools::csgUnion(*result, *thin);
   }
   thin.reset();
   report_progress(opts.progress, 0.8);

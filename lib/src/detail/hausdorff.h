@@ -23,7 +23,7 @@ struct HausdorffResult {
 /// as fine as the other, else points on its faces spaced like the other side's edges. Distances
 /// to a mesh of < 1.5M faces are exact (spatial hash of faces); to a larger one they are taken to
 /// the faces around the nearest vertex (an upper bound, exact on well-shaped meshes).
-/// Assumes unreferenced vertices were removed.
+/// Unreferenced vertices are ignored.
 HausdorffResult hausdorff_distance(const TriMesh& a, const TriMesh& b,
                                    const HausdorffOptions& opts = {});
 
