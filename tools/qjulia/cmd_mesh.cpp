@@ -12,6 +12,7 @@
 #include "qjulia/export.h"
 #include "qjulia/pipeline.h"
 #include "qjulia/render.h"
+#include "render_args.h"
 
 namespace qjulia::cli {
 namespace {
@@ -47,7 +48,8 @@ run:
   -o, --output OUT           the mesh file; the format follows the extension
   --stats FILE               figures of the run as JSON
   --vdb FILE                 the sampled grid as an OpenVDB file
-  --preview FILE.png         a preview image of the mesh
+  --preview FILE.png         a preview image of the mesh (--preview-shading, --preview-rotate,
+                             ... as for qjulia render; listed below)
   --dense                    evaluate every grid point (validation)
   --threads T                worker threads (default: all cores)
   --quiet                    no progress bar
@@ -59,9 +61,12 @@ int cmd_mesh(const Tokens& tokens) {
   auto specs = param_option_specs();
   for (const char* name : {"output", "stats", "vdb", "preview", "threads"}) specs.push_back({name});
   for (const char* name : {"dense", "quiet", "help"}) specs.push_back({name, false});
+  const auto preview_specs = render_option_specs("preview-");
+  specs.insert(specs.end(), preview_specs.begin(), preview_specs.end());
   const ParsedArgs args = parse_args(tokens, specs, "mesh");
   if (args.has("help")) {
     std::fputs(kHelp, stdout);
+    std::printf("preview (with --preview):\n%s", render_options_help("preview-").c_str());
     return 0;
   }
   if (args.positional.size() > 1)
@@ -78,7 +83,9 @@ int cmd_mesh(const Tokens& tokens) {
                                                     static_cast<std::size_t>(n));
   }
   const auto preview = args.get("preview");
-  if (preview && preview->size() < 4) throw InvalidInput("--preview: expected a .png file name");
+  // Checked before the long run, so a bad value fails at once.
+  const RenderOptions preview_options = render_options_from_args(args, "preview-");
+  if (preview) check_render_options(preview_options);
 
   PipelineOptions popts;
   popts.dense = args.has("dense");
@@ -100,7 +107,7 @@ int cmd_mesh(const Tokens& tokens) {
     written.add(*v);
   }
   if (preview) {
-    write_png(*preview, render(result.mesh, RenderOptions{}));
+    write_png(*preview, render(result.mesh, preview_options));
     written.add(*preview);
   }
   const auto stats_path = args.get("stats");
