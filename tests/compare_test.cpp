@@ -345,6 +345,53 @@ TEST(ExperimentCli, CardioidDistanceShrinksAsIterationsGrow) {
   EXPECT_TRUE(std::filesystem::exists(dir / "cardioid.md"));
 }
 
+TEST(ExperimentCli, Table1ShowsTheEscapeMethodFailingOnNewtonsCubic) {
+  const auto dir = scratch_dir("table1");
+  const auto r = run_cli("experiment table1 --resolution 24 --samples 20000 --out " + dir.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  std::ifstream in(dir / "table1.csv");
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::string> names;
+  {
+    std::stringstream h(line);
+    std::string cell;
+    while (std::getline(h, cell, ',')) names.push_back(cell);
+  }
+  std::vector<std::map<std::string, std::string>> rows;
+  while (std::getline(in, line)) {
+    std::stringstream v(line);
+    std::string cell;
+    std::map<std::string, std::string> row;
+    for (std::size_t i = 0; i < names.size() && std::getline(v, cell, ','); ++i)
+      row[names[i]] = cell;
+    rows.push_back(row);
+  }
+  ASSERT_EQ(rows.size(), 13u);  // the cut-off reference and 3 x 4 escape cells
+  EXPECT_EQ(rows[0]["method"], "cutoff");
+  const double cut_volume = std::stod(rows[0]["volume"]);
+  for (std::size_t i = 1; i < rows.size(); ++i) {
+    auto& row = rows[i];
+    EXPECT_EQ(row["method"], "escape");
+    const double bailout = std::stod(row["bailout"]);
+    // The attracting fixed points (cube roots of unity) lie outside the ball of radius 0.8:
+    // every converging orbit leaves it, nothing is kept.
+    if (bailout == 0.8) {
+      EXPECT_EQ(row["faces"], "0");
+    }
+    // With R = 2 the solid is most of the ball of radius 2 (converging orbits never leave it):
+    // far more volume than the cut-off shell, and a surface far from it.
+    if (bailout == 2) {
+      const double volume = std::stod(row["volume"]);
+      EXPECT_LT(volume, 4.0 / 3 * M_PI * 8);
+      EXPECT_GT(volume, 4 * cut_volume);
+      EXPECT_GT(std::stod(row["hausdorff_to_cutoff"]), 0.5);
+    }
+  }
+  EXPECT_TRUE(std::filesystem::exists(dir / "table1.md"));
+  EXPECT_TRUE(std::filesystem::exists(dir / "table1.png"));  // the renderer is on main
+}
+
 TEST(ExperimentCli, UnknownExperimentExitsTwo) {
   const auto r = run_cli("experiment table9");
   EXPECT_EQ(r.exit_code, 2) << r.output;

@@ -499,6 +499,7 @@ TEST_F(RenderCli, BadInputExitsWithCodeTwoAndWritesNothing) {
   EXPECT_EQ(run_cli("render " + path("a.png") + " -o " + path("x.png") + " --size 0x5", &out), 2);
   EXPECT_EQ(run_cli("render " + path("a.png") + " -o " + path("x.png") + " --background red", &out),
             2);
+  EXPECT_EQ(run_cli("render " + path("a.png") + " -o " + path("x.png") + " --ambient 2", &out), 2);
   EXPECT_EQ(run_cli("render " + path("missing.ply") + " -o " + path("x.png"), &out), 2) << out;
   EXPECT_FALSE(std::filesystem::exists(path("x.png")));
   EXPECT_EQ(run_cli("render --help", &out), 0);
@@ -569,6 +570,13 @@ TEST(RenderArgs, BadValuesNameTheFlag) {
   EXPECT_TRUE(fails_naming({"--rotate", "x,0,0"}, "--rotate"));
   EXPECT_TRUE(fails_naming({"--framing", "tight"}, "--framing"));
   EXPECT_TRUE(fails_naming({"--supersample", "9"}, "--supersample"));
+  // Ranges are checked at the door, before any mesh is read or made.
+  EXPECT_TRUE(fails_naming({"--ambient", "2"}, "--ambient"));
+  EXPECT_TRUE(fails_naming({"--specular", "-0.1"}, "--specular"));
+  EXPECT_TRUE(fails_naming({"--margin", "0.5"}, "--margin"));
+  EXPECT_TRUE(fails_naming({"--light", "0,0,0"}, "--light"));
+  EXPECT_TRUE(fails_naming({"--shininess", "0"}, "--shininess"));
+  EXPECT_TRUE(fails_naming({"--size", "16384", "--supersample", "4"}, "--size"));
   EXPECT_EQ(parse_image_size("300", "s"), std::make_pair(300, 300));
   EXPECT_EQ(parse_color("#fff", "c"), (std::array<std::uint8_t, 3>{255, 255, 255}));
 }

@@ -85,7 +85,9 @@ Orbit Classifier::orbit(double x, double y, double z) const {
       if (!std::isfinite(n2) || n2 > r2) {
         const double s = std::isfinite(n2) ? 0.5 * std::log(n2) - log_r
                                            : std::numeric_limits<double>::infinity();
-        const double s_prev = 0.5 * std::log(prev2) - log_r;  // <= 0, maybe -inf
+        // s_(k-1) <= 0; -inf when h_(k-1) = 0 exactly, where F takes the step-0 form so that
+        // it stays above N - k.
+        const double s_prev = prev2 > 0 ? 0.5 * std::log(prev2) - log_r : -1.0;
         out.field = clamp_field((n_iter - k) + frac(s, -s_prev));
         out.exit_step = k;
         out.last = is_finite(next) ? next : h;

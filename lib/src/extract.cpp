@@ -290,14 +290,21 @@ int triangulate_loop(const int* loop, int len,
 }
 
 // Moves the centre vertex of a loop onto the nearest boundary point found along the loop's
-// normal, the axes and the cube diagonals within half a voxel, else within a voxel; keeps it
-// where none is found.
+// normal and the 13 directions to a cube's neighbours, within half a voxel, else within a
+// voxel; keeps it where none is found.
 std::array<float, 3> project_centre(const Solid& solid, const Vec3& c, const Vec3& normal,
                                     double voxel, double tol_t, std::uint64_t* evaluations) {
   std::array<float, 3> out{static_cast<float>(c.x), static_cast<float>(c.y),
                            static_cast<float>(c.z)};
-  const Vec3 dirs[8] = {normal,    {1, 0, 0},  {0, 1, 0},  {0, 0, 1},
-                        {1, 1, 1}, {1, 1, -1}, {1, -1, 1}, {-1, 1, 1}};
+  // The loop's normal, then the 13 directions to the neighbours of a cube.
+  Vec3 dirs[14];
+  dirs[0] = normal;
+  int nd = 1;
+  for (int dx = -1; dx <= 1; ++dx)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dz = -1; dz <= 1; ++dz)
+        if (dx > 0 || (dx == 0 && (dy > 0 || (dy == 0 && dz > 0))))
+          dirs[nd++] = {double(dx), double(dy), double(dz)};
   double best = std::numeric_limits<double>::infinity();
   for (int pass = 0; pass < 2 && !std::isfinite(best); ++pass)
     for (const Vec3& dir : dirs) {

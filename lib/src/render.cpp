@@ -54,7 +54,7 @@ void require(bool ok, const std::string& message) {
   if (!ok) throw InvalidInput("render: " + message);
 }
 
-void validate(const TriMesh& mesh, const RenderOptions& o) {
+void validate_options(const RenderOptions& o) {
   require(o.width >= 1 && o.width <= kMaxSide && o.height >= 1 && o.height <= kMaxSide,
           "size " + std::to_string(o.width) + "x" + std::to_string(o.height) +
               " is out of range (1..16384 per side)");
@@ -72,6 +72,10 @@ void validate(const TriMesh& mesh, const RenderOptions& o) {
     require(finite3(l) && dot(l, l) > 0,
             "light " + std::to_string(i + 1) + " must be a finite non-zero direction");
   }
+}
+
+void validate(const TriMesh& mesh, const RenderOptions& o) {
+  validate_options(o);
   const std::size_t nv = mesh.positions.size();
   require(mesh.normals.empty() || mesh.normals.size() == nv,
           "mesh has " + std::to_string(mesh.normals.size()) + " normals for " + std::to_string(nv) +
@@ -238,6 +242,8 @@ std::uint8_t to_byte(double v) {
 }
 
 }  // namespace
+
+void check_render_options(const RenderOptions& opts) { validate_options(opts); }
 
 std::array<double, 3> default_light() {
   const Vec3 l = normalized({-0.5, 0.6, 1.0});

@@ -312,7 +312,7 @@ int run_table1(const Options& o) {
   try {
     RenderOptions ro;
     ro.width = ro.height = tile;
-    ro.rotate_deg = {-60, 0, 30};
+    ro.rotate_deg = {-20, 25, 0};
     Image sheet = blank(cols * tile, (rows + 1) * (tile + label), {255, 255, 255});
     auto draw = [&](const Run& run, const std::string& caption, int x, int y) {
       if (!run.mesh.triangles.empty())

@@ -33,9 +33,9 @@ sheet with one captioned cell each; inputs ending in .png are placed in the shee
 options:
   -o, --output OUT.png      the image (written atomically)
   --view rx,ry,rz           one cell per view (rotation as --rotate); repeatable
-  --columns N               cells per row of a contact sheet (default: ceil(sqrt(cells)))
-  --caption TEXT            caption of the next cell (default: file name); repeatable
-  --threads T               worker threads (default: all cores)
+  --columns N               cells per row of a contact sheet (ceil(sqrt(cells)))
+  --caption TEXT            caption of the next cell (the file name); repeatable
+  --threads T               worker threads (all cores)
 )";
 
 std::string lower_extension(const std::string& path) {

@@ -1,6 +1,7 @@
 // The command-line options that shape a rendering.
 #include "render_args.h"
 
+#include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <tuple>
@@ -20,22 +21,39 @@ std::vector<OptionSpec> render_option_specs(const std::string& prefix) {
 }
 
 std::string render_options_help(const std::string& prefix) {
-  const std::string p = "  --" + prefix;
-  return p + "shading simple|lambert|phong   flat facets | smooth diffuse | + highlight (phong)\n" +
-         p + "light x,y,z         direction towards a light, view space (x right, y up,\n" +
-         "                          z towards the viewer); repeatable (default -0.5,0.6,1)\n" + p +
-         "ambient A           ambient share 0..1 (0.15)\n" + p +
-         "specular S          highlight strength 0..1 (0.4)\n" + p +
-         "shininess E         Phong exponent 1..10000 (32)\n" + p +
-         "rotate rx,ry,rz     rotation about X, then Y, then Z, degrees (0,0,0)\n" + p +
-         "size WxH            image size in pixels, or N for N x N (800x800)\n" + p +
-         "background COLOR    #rrggbb or r,g,b in 0..255 (#ffffff)\n" + p +
-         "base-color COLOR    surface colour without vertex colours (#ccc7bd)\n" + p +
-         "no-vertex-colors    ignore the mesh's vertex colours\n" + p +
-         "framing box|sphere  fit the projected box (tight) or the bounding sphere\n" +
-         "                          (same scale for every rotation) (box)\n" + p +
-         "margin M            empty border, fraction of the smaller side 0..0.45 (0.05)\n" + p +
-         "supersample N       N x N samples per pixel, 1..8 (1)\n";
+  // {flag and value, description lines}
+  const std::vector<std::pair<std::string, std::vector<std::string>>> rows = {
+      {"shading simple|lambert|phong",
+       {"flat facets | smooth diffuse | smooth diffuse + highlight (phong)"}},
+      {"light x,y,z",
+       {"direction towards a light in view space (x right, y up, z towards",
+        "the viewer); repeatable (-0.5,0.6,1)"}},
+      {"ambient A", {"ambient share 0..1 (0.15)"}},
+      {"specular S", {"highlight strength 0..1 (0.4)"}},
+      {"shininess E", {"Phong exponent 1..10000 (32)"}},
+      {"rotate rx,ry,rz", {"rotation about X, then Y, then Z, degrees (0,0,0)"}},
+      {"size WxH", {"image size in pixels, or N for N x N (800x800)"}},
+      {"background COLOR", {"#rrggbb, #rgb or r,g,b in 0..255 (#ffffff)"}},
+      {"base-color COLOR", {"surface colour without vertex colours (#ccc7bd)"}},
+      {"no-vertex-colors", {"ignore the mesh's vertex colours"}},
+      {"framing box|sphere",
+       {"fit the projected box (tight) or the sphere around the mesh (same",
+        "scale for every rotation) (box)"}},
+      {"margin M", {"empty border, fraction of the smaller side 0..0.45 (0.05)"}},
+      {"supersample N", {"N x N samples per pixel, 1..8 (1)"}}};
+  const std::size_t width = 28;  // the column of the descriptions in every --help
+  std::string out;
+  for (const auto& [flag, lines] : rows) {
+    const std::string head = "  --" + prefix + flag;
+    std::size_t i = 0;
+    if (head.size() + 1 > width) {
+      out += head + "\n";  // too long: the description starts on the next line
+    } else {
+      out += head + std::string(width - head.size(), ' ') + lines[i++] + "\n";
+    }
+    for (; i < lines.size(); ++i) out += std::string(width, ' ') + lines[i] + "\n";
+  }
+  return out;
 }
 
 std::pair<int, int> parse_image_size(const std::string& text, const std::string& what) {
@@ -130,6 +148,21 @@ RenderOptions render_options_from_args(const ParsedArgs& args, const std::string
     const long long n = parse_int(*s, flag("supersample"));
     if (n < 1 || n > 8) throw InvalidInput(flag("supersample") + ": must be 1..8");
     o.supersample = static_cast<int>(n);
+  }
+  try {
+    check_render_options(o);
+  } catch (const InvalidInput& e) {
+    // "render: ambient must be in [0, 1]" -> "--ambient: ambient must be in [0, 1]".
+    std::string what = e.what();
+    if (what.rfind("render: ", 0) == 0) what = what.substr(8);
+    const std::string field = what.substr(0, what.find(' '));
+    const std::vector<std::pair<std::string, std::string>> flags = {
+        {"color", "base-color"}, {"rotation", "rotate"},   {"light", "light"},
+        {"ambient", "ambient"},  {"specular", "specular"}, {"shininess", "shininess"},
+        {"margin", "margin"},    {"size", "size"},         {"supersample", "supersample"}};
+    for (const auto& [name, flag_name] : flags)
+      if (field == name) throw InvalidInput("--" + prefix + flag_name + ": " + what);
+    throw InvalidInput(what);
   }
   return o;
 }

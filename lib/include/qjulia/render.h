@@ -62,6 +62,10 @@ struct RenderOptions {
 /// The default light direction when RenderOptions::lights is empty: upper left, in front.
 std::array<double, 3> default_light();
 
+/// Checks `opts` as render() does, without a mesh (for validating options at the door).
+/// @throws InvalidInput naming the option and its accepted range.
+void check_render_options(const RenderOptions& opts);
+
 /// Renders `mesh` framed automatically. Same input, same pixels, whatever the thread count.
 /// Shading of one light l (unit, view space) at unit normal n, base colour a:
 ///   a * (ambient + (1 - ambient) * min(1, sum_l max(0, n.l))) + specular * sum_l max(0, r.v)^s
