@@ -80,7 +80,8 @@ std::vector<std::array<uint32_t, 3>> simplify_once(const TriMesh& mesh,
 /// cuts, are locked and allowed). Returns triangles indexing mesh.positions.
 std::vector<std::array<uint32_t, 3>> simplify_manifold(const TriMesh& mesh,
                                                        std::size_t target_faces, double abs_error,
-                                                       bool* ok) {
+                                                       bool* ok,
+                                                       const std::vector<uint32_t>& pinned = {}) {
   const float scale = meshopt_simplifyScale(&mesh.positions[0][0], mesh.positions.size(),
                                             sizeof(mesh.positions[0]));
   const float rel_error = static_cast<float>(std::min(abs_error / std::max(scale, 1e-30f), 1e30));
@@ -116,6 +117,8 @@ std::vector<std::array<uint32_t, 3>> simplify_manifold(const TriMesh& mesh,
   seeds.insert(seeds.end(), input_topology.boundary_vertices.begin(),
                input_topology.boundary_vertices.end());
   if (!seeds.empty()) freeze(seeds, 1);
+  // Vertices of faces that intersected in an earlier result: two rings kept as they are.
+  if (!pinned.empty()) freeze(pinned, 2);
   TriMesh out;
   for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
     out.triangles = simplify_once(mesh, frozen, target_faces, rel_error);
@@ -158,7 +161,8 @@ uint64_t morton(uint32_t x, uint32_t y, uint32_t z) {
 /// their centroids), simplified in parallel with their cut edges locked. Returns triangles
 /// indexing mesh.positions.
 std::vector<std::array<uint32_t, 3>> simplify_chunks(const TriMesh& mesh, std::size_t chunks,
-                                                     double ratio, double abs_error) {
+                                                     double ratio, double abs_error,
+                                                     const std::vector<uint8_t>& pinned) {
   const std::size_t nf = mesh.triangles.size();
   std::array<double, 3> lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
   for (const auto& p : mesh.positions)
@@ -185,7 +189,7 @@ std::vector<std::array<uint32_t, 3>> simplify_chunks(const TriMesh& mesh, std::s
   tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
     // Local mesh with compact vertices.
     TriMesh local;
-    std::vector<uint32_t> global;
+    std::vector<uint32_t> global, local_pinned;
     std::unordered_map<uint32_t, uint32_t> to_local;
     to_local.reserve((cut[c + 1] - cut[c]) * 3 / 2);
     for (std::size_t i = cut[c]; i < cut[c + 1]; ++i) {
@@ -194,6 +198,7 @@ std::vector<std::array<uint32_t, 3>> simplify_chunks(const TriMesh& mesh, std::s
         const uint32_t v = mesh.triangles[order[i].second][k];
         auto [it, fresh] = to_local.emplace(v, static_cast<uint32_t>(global.size()));
         if (fresh) {
+          if (!pinned.empty() && pinned[v]) local_pinned.push_back(it->second);
           global.push_back(v);
           local.positions.push_back(mesh.positions[v]);
         }
@@ -203,7 +208,7 @@ std::vector<std::array<uint32_t, 3>> simplify_chunks(const TriMesh& mesh, std::s
     }
     bool ok = false;
     const auto target = static_cast<std::size_t>(std::ceil(local.triangles.size() * ratio));
-    auto tris = simplify_manifold(local, target, abs_error, &ok);
+    auto tris = simplify_manifold(local, target, abs_error, &ok, local_pinned);
     for (auto& t : tris)
       for (auto& v : t) v = global[v];
     results[c] = std::move(tris);
@@ -255,18 +260,30 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
   double abs_error = opts.max_error ? *opts.max_error : 1e30;
   TriMesh out;
   bool use_chunks = mesh.face_count() >= 2 * kChunkFaces;
-  for (int attempt = 0; attempt < 6; ++attempt) {
+  std::vector<uint8_t> pinned;  // input vertices kept with their stars (self-intersections)
+  int intersection_rounds = 0;
+  for (int attempt = 0; attempt < 10; ++attempt) {
     TriMesh work;  // positions shared with the input; triangles as simplified so far
     work.positions = mesh.positions;
     work.colors = mesh.colors;
     work.triangles = mesh.triangles;
+    std::vector<uint32_t> to_input(nv);  // work vertex -> input vertex
+    for (uint32_t i = 0; i < nv; ++i) to_input[i] = i;
+    auto compact = [&] {
+      std::vector<uint32_t> remap;
+      detail::compact_vertices(work, &remap);
+      std::vector<uint32_t> next(work.positions.size());
+      for (std::size_t i = 0; i < remap.size(); ++i)
+        if (remap[i] != 0xffffffffu) next[remap[i]] = to_input[i];
+      to_input.swap(next);
+    };
     const std::size_t threads = std::max(1u, std::thread::hardware_concurrency());
     if (use_chunks) {
       const std::size_t chunks =
           std::max<std::size_t>(2 * threads, (mesh.face_count() + kChunkFaces - 1) / kChunkFaces);
       // Stage 1 stops at 1.5 times the budget so that stage 2 has room to dissolve the seams.
       const double ratio = opts.faces ? std::min(1.0, 1.5 * budget / mesh.face_count()) : 0.0;
-      work.triangles = simplify_chunks(mesh, chunks, ratio, 0.5 * abs_error);
+      work.triangles = simplify_chunks(mesh, chunks, ratio, 0.5 * abs_error, pinned);
       if (debug)
         std::fprintf(stderr, "decimate: %zu chunks -> %zu faces, %.2f s\n", chunks,
                      work.triangles.size(), seconds_since(t0));
@@ -275,11 +292,15 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
     // Stage 2 (or the only stage): the whole mesh.
     if (!opts.faces || work.face_count() > budget) {
       // Compact first so meshoptimizer's per-vertex work follows the smaller mesh.
-      detail::compact_vertices(work);
+      compact();
+      std::vector<uint32_t> work_pinned;
+      if (!pinned.empty())
+        for (uint32_t i = 0; i < to_input.size(); ++i)
+          if (pinned[to_input[i]]) work_pinned.push_back(i);
       bool ok = false;
-      work.triangles = simplify_manifold(work, budget, 0.5 * abs_error, &ok);
+      work.triangles = simplify_manifold(work, budget, 0.5 * abs_error, &ok, work_pinned);
     }
-    detail::compact_vertices(work);
+    compact();
     out = std::move(work);
     if (debug)
       std::fprintf(stderr, "decimate: -> %zu faces, %.2f s\n", out.face_count(), seconds_since(t0));
@@ -299,8 +320,30 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
     rep.hausdorff = detail::hausdorff_distance(mesh, out).distance();
     if (debug)
       std::fprintf(stderr, "decimate: hausdorff %g, %.2f s\n", rep.hausdorff, seconds_since(t0));
-    if (!opts.max_error || rep.hausdorff <= *opts.max_error) break;
-    abs_error *= 0.85 * (*opts.max_error / rep.hausdorff);
+    if (opts.max_error && rep.hausdorff > *opts.max_error) {
+      abs_error *= 0.85 * (*opts.max_error / rep.hausdorff);
+      continue;
+    }
+    if (opts.avoid_self_intersections) {
+      // Pin the input vertices of intersecting faces and redo; stop when every intersecting
+      // face is already pinned (then the input had the intersection) or after three rounds.
+      const auto pairs = detail::self_intersecting_face_pairs(out);
+      rep.self_intersections = pairs.size();
+      if (debug)
+        std::fprintf(stderr, "decimate: %zu self-intersecting pairs, %.2f s\n", pairs.size(),
+                     seconds_since(t0));
+      if (pinned.empty()) pinned.assign(nv, 0);
+      bool fresh = false;
+      for (const auto& [a, b] : pairs)
+        for (uint32_t f : {a, b})
+          for (uint32_t v : out.triangles[f])
+            if (!pinned[to_input[v]]) {
+              pinned[to_input[v]] = 1;
+              fresh = true;
+            }
+      if (fresh && intersection_rounds++ < 3) continue;
+    }
+    break;
   }
   // Input normals describe the fine surface; the caller recomputes them for the coarse one.
   out.normals.clear();

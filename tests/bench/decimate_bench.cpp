@@ -1,6 +1,7 @@
 // Decimation benchmark: a bumpy icosphere (level 9: 5.24M faces) decimated to 10%; prints input
 // faces per second and the peak RSS.
 // Usage: decimate_bench [LEVEL] [RATIO] [--self-intersections]   (RATIO < 0: max_error = -RATIO)
+//        ... --avoid-self-intersections (last argument): DecimateOptions::avoid_self_intersections
 //        decimate_bench --preset NAME RESOLUTION RATIO [SIZE_MM MIN_THICKNESS_MM]
 //          (a real fractal mesh from the pipeline; optionally then scaled and thickened)
 #include <sys/resource.h>
@@ -67,6 +68,11 @@ int main(int argc, char** argv) {
     opts.faces = static_cast<long long>(mesh.face_count() * ratio);
   else
     opts.max_error = -ratio;  // a negative RATIO is an error bound instead of a face ratio
+  for (int i = 1; i < argc; ++i)
+    if (std::strcmp(argv[i], "--avoid-self-intersections") == 0) {
+      opts.avoid_self_intersections = true;
+      if (argc == i + 1) --argc;  // not a positional argument
+    }
   qjulia::DecimateReport rep;
   t0 = std::chrono::steady_clock::now();
   const double c0 = cpu_seconds();
@@ -79,6 +85,8 @@ int main(int argc, char** argv) {
       "hausdorff %.5f; closed+manifold+oriented %s (euler %lld); peak RSS %ld MB\n",
       rep.faces_before, rep.faces_after, td, cpu, rep.faces_before / td / 1e6, rep.hausdorff,
       topo.closed_manifold_oriented ? "yes" : "NO", topo.euler, peak_rss_mb());
+  if (rep.self_intersections)
+    std::printf("self-intersecting pairs left: %zu\n", *rep.self_intersections);
   if (self) {
     t0 = std::chrono::steady_clock::now();
     const double c1 = cpu_seconds();

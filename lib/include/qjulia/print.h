@@ -27,6 +27,7 @@ struct ThickenOptions {
 /// The result is the zero level of  S u dilate(S \ dilate(open(S, r), 1.5 voxels), r)  with
 /// r = min_thickness / 2: a wall of thickness t < min_thickness becomes t + min_thickness thick;
 /// thicker parts are re-meshed on the level-set grid (within about a voxel of the input).
+/// Components (enclosed voids included) of |volume| < r^3 are removed from the result.
 /// @throws InvalidInput when min_thickness <= 0, voxel_size < 0 or the grid would exceed
 /// ~2^31 voxels per axis.
 TriMesh thicken(const TriMesh& mesh, const ThickenOptions& opts);

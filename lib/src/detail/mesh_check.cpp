@@ -260,7 +260,7 @@ std::size_t drop_repeated_and_fins(TriMesh& mesh) {
   return before - w;
 }
 
-std::size_t compact_vertices(TriMesh& mesh) {
+std::size_t compact_vertices(TriMesh& mesh, std::vector<uint32_t>* old_to_new) {
   constexpr uint32_t kNone = 0xffffffffu;
   const std::size_t nv = mesh.positions.size();
   std::vector<uint32_t> remap(nv, kNone);
@@ -280,6 +280,7 @@ std::size_t compact_vertices(TriMesh& mesh) {
   apply(mesh.positions);
   apply(mesh.normals);
   apply(mesh.colors);
+  if (old_to_new) *old_to_new = std::move(remap);
   return nv - next;
 }
 

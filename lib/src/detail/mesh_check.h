@@ -48,6 +48,11 @@ struct VertexFaces {
 std::size_t drop_repeated_and_fins(TriMesh& mesh);
 
 /// Removes unreferenced vertices (keeping normals/colors aligned). Returns how many were removed.
-std::size_t compact_vertices(TriMesh& mesh);
+/// `old_to_new` (optional) receives the new index of every old vertex (0xffffffff if removed).
+std::size_t compact_vertices(TriMesh& mesh, std::vector<uint32_t>* old_to_new = nullptr);
+
+/// Pairs of faces that intersect other than in their shared vertices/edge (CGAL; defined in
+/// clean_cgal.cpp). Faces a halfedge mesh cannot hold are skipped.
+std::vector<std::pair<uint32_t, uint32_t>> self_intersecting_face_pairs(const TriMesh& mesh);
 
 }  // namespace qjulia::detail
