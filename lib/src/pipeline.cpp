@@ -83,17 +83,8 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   timer.stop();
   stats.clean = creport;
 
-  if (params.mesh.faces || params.mesh.max_error) {
-    DecimateOptions dopts;
-    dopts.faces = params.mesh.faces;
-    dopts.max_error = params.mesh.max_error;
-    dopts.progress = timer.start("decimate");
-    DecimateReport dreport;
-    mesh = decimate(mesh, dopts, &dreport);
-    timer.stop();
-    stats.decimate = dreport;
-  }
-
+  // Printing: scale first (the thickness is in millimetres), thicken, then decimate, so the face
+  // budget holds for the final mesh.
   if (params.print.size_mm) {
     timer.start("scale");
     stats.scale = scale_to_longest_side(mesh, *params.print.size_mm);
@@ -107,6 +98,18 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
     topts.progress = timer.start("thicken");
     mesh = thicken(mesh, topts);
     timer.stop();
+  }
+  if (params.mesh.faces || params.mesh.max_error) {
+    DecimateOptions dopts;
+    dopts.faces = params.mesh.faces;
+    // max_error is in model units; the mesh may have been scaled to millimetres.
+    if (params.mesh.max_error) dopts.max_error = *params.mesh.max_error * stats.scale;
+    dopts.avoid_self_intersections = params.print.check;
+    dopts.progress = timer.start("decimate");
+    DecimateReport dreport;
+    mesh = decimate(mesh, dopts, &dreport);
+    timer.stop();
+    stats.decimate = dreport;
   }
   if (params.print.check) {
     timer.start("check");
@@ -172,6 +175,7 @@ std::string stats_to_json(const RunStats& s, const Params& params) {
                   {"removed_faces", c.removed_faces},
                   {"merged_vertices", c.merged_vertices},
                   {"degenerate_faces_removed", c.degenerate_faces_removed},
+                  {"degenerate_faces_flipped", c.degenerate_faces_flipped},
                   {"min_component_volume", c.min_component_volume}};
   }
   if (s.decimate) {
@@ -179,7 +183,10 @@ std::string stats_to_json(const RunStats& s, const Params& params) {
     j["decimate"] = {{"faces_before", d.faces_before},
                      {"faces_after", d.faces_after},
                      {"hausdorff", d.hausdorff},
-                     {"target_reached", d.target_reached}};
+                     {"target_reached", d.target_reached},
+                     {"closed", d.closed},
+                     {"manifold", d.manifold}};
+    if (d.self_intersections) j["decimate"]["self_intersections"] = *d.self_intersections;
   }
   if (s.self_intersections) j["self_intersections"] = *s.self_intersections;
   if (params.print.size_mm || params.print.min_thickness_mm || params.print.check) {
