@@ -1,0 +1,112 @@
+#include "qjulia/pipeline.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <set>
+
+namespace qjulia {
+namespace {
+
+using Cx = std::complex<double>;
+
+bool newton_cutoff_inside(Cx z, int n, double r) {
+  for (int k = 1; k <= n; ++k) {
+    const Cx next = (2.0 * z * z * z + 1.0) / (3.0 * z * z);
+    if (!std::isfinite(next.real()) || !std::isfinite(next.imag())) return true;
+    if (std::abs(next - z) < r) return false;
+    z = next;
+  }
+  return true;
+}
+
+TEST(Pipeline, NewtonCubicClippedAtZEqualsZeroHasAFlatCapWhoseOutlineIsTheComplexPicture) {
+  Params p = preset("newton-cubic");
+  p.resolution = 96;
+  p.mesh.clip.push_back({{0, 0, 1}, 0.0});
+  const PipelineResult r = run_pipeline(p);
+  const MeshMeasure& m = r.stats.measure;
+  EXPECT_TRUE(m.closed);
+  EXPECT_TRUE(m.manifold);
+  EXPECT_TRUE(m.oriented);
+  EXPECT_GT(m.volume, 0);
+  const TriMesh& mesh = r.mesh;
+  for (const auto& v : mesh.positions) EXPECT_LE(v[2], 1e-6) << "a vertex above the plane";
+  // Cap triangles: all three vertices on the plane. Their outline: edges of a cap triangle that
+  // only one cap triangle has.
+  auto on_plane = [&](std::uint32_t v) { return std::abs(mesh.positions[v][2]) <= 1e-6; };
+  std::multiset<std::pair<std::uint32_t, std::uint32_t>> cap_edges;
+  std::size_t cap = 0;
+  for (const auto& t : mesh.triangles) {
+    if (!on_plane(t[0]) || !on_plane(t[1]) || !on_plane(t[2])) continue;
+    ++cap;
+    for (int e = 0; e < 3; ++e) cap_edges.insert(std::minmax(t[e], t[(e + 1) % 3]));
+  }
+  EXPECT_GT(cap, 100u);
+  std::set<std::uint32_t> outline;
+  for (const auto& e : cap_edges)
+    if (cap_edges.count(e) == 1) {
+      outline.insert(e.first);
+      outline.insert(e.second);
+    }
+  ASSERT_GT(outline.size(), 100u);
+  // Outline vertices away from the box walls lie on the complex boundary (the section z = 0 of a
+  // real-coefficient map is the complex picture): the complex classification changes within
+  // half a voxel.
+  const double h = r.stats.voxel_size;
+  auto inside = [&](double x, double y) {
+    return newton_cutoff_inside(Cx(x, std::abs(y)), p.iterations, p.bailout);
+  };
+  std::size_t checked = 0, far = 0;
+  for (std::uint32_t v : outline) {
+    const auto& q = mesh.positions[v];
+    if (std::abs(std::abs(q[0]) - 2) < 1e-5 || std::abs(std::abs(q[1]) - 2) < 1e-5) continue;
+    ++checked;
+    const bool c = inside(q[0], q[1]);
+    bool found = false;
+    for (int k = -200; k <= 200 && !found; ++k) {
+      const double t = k * 0.5 * h / 200;
+      found = inside(q[0] + t, q[1]) != c || inside(q[0], q[1] + t) != c;
+    }
+    far += !found;
+  }
+  EXPECT_GT(checked, 100u);
+  EXPECT_EQ(far, 0u) << "of " << checked << " outline vertices";
+}
+
+TEST(Pipeline, SizeScalesTheLongestSideToTheGivenMillimetres) {
+  Params p = preset("classic-julia");
+  p.resolution = 64;
+  p.print.size_mm = 80;
+  const PipelineResult r = run_pipeline(p);
+  const MeshMeasure& m = r.stats.measure;
+  const double longest = std::max({m.bbox_max[0] - m.bbox_min[0], m.bbox_max[1] - m.bbox_min[1],
+                                   m.bbox_max[2] - m.bbox_min[2]});
+  EXPECT_NEAR(longest, 80.0, 0.05);
+  EXPECT_TRUE(m.closed);
+  EXPECT_TRUE(m.manifold);
+  EXPECT_EQ(r.stats.unit, "mm");
+}
+
+TEST(Pipeline, DustRemovalRemovesOnlyComponentsBelowTheThreshold) {
+  Params p = preset("newton-cubic");
+  p.resolution = 96;
+  const double voxel = 4.0 / 96;
+  const PipelineResult r = run_pipeline(p);
+  ASSERT_TRUE(r.stats.clean.has_value());
+  const CleanReport& c = *r.stats.clean;
+  EXPECT_EQ(c.components_before, c.components_after + c.removed_components);
+  EXPECT_EQ(c.components_after, r.stats.measure.components.size());
+  EXPECT_NEAR(c.min_component_volume, 2 * voxel * voxel * voxel, 1e-12);
+  for (const auto& comp : r.stats.measure.components)
+    EXPECT_GE(std::abs(comp.volume), c.min_component_volume);
+  // With the threshold off, the same run keeps every component.
+  p.mesh.min_component = 0.0;
+  const PipelineResult all = run_pipeline(p);
+  EXPECT_EQ(all.stats.measure.components.size(), c.components_before);
+}
+
+}  // namespace
+}  // namespace qjulia
