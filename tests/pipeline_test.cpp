@@ -53,22 +53,30 @@ TEST(Pipeline, NewtonCubicClippedAtZEqualsZeroHasAFlatCapWhoseOutlineIsTheComple
     }
   ASSERT_GT(outline.size(), 100u);
   // Outline vertices away from the box walls lie on the complex boundary (the section z = 0 of a
-  // real-coefficient map is the complex picture): the complex classification changes within
-  // half a voxel.
+  // real-coefficient map is the complex picture). Marching cubes chamfers the rim of a cap (no
+  // sharp features): the outline runs through the grid columns inside the picture that border
+  // columns outside it, so the classification changes within one cell of each outline vertex
+  // (one voxel along x or y, sqrt(2) along a diagonal) in the plane or half a voxel below it.
   const double h = r.stats.voxel_size;
-  auto inside = [&](double x, double y) {
-    return newton_cutoff_inside(Cx(x, std::abs(y)), p.iterations, p.bailout);
+  auto inside3 = [&](double x, double y, double z) {
+    return newton_cutoff_inside(Cx(x, std::hypot(y, z)), p.iterations, p.bailout);
   };
   std::size_t checked = 0, far = 0;
   for (std::uint32_t v : outline) {
     const auto& q = mesh.positions[v];
-    if (std::abs(std::abs(q[0]) - 2) < 1e-5 || std::abs(std::abs(q[1]) - 2) < 1e-5) continue;
+    // Next to a wall of the box the outline is the wall's.
+    if (std::abs(q[0]) > 2 - h || std::abs(q[1]) > 2 - h) continue;
     ++checked;
-    const bool c = inside(q[0], q[1]);
+    // Along x, y and the diagonals in the plane and half a voxel below it (where the grid
+    // columns are sampled): the outline of a rim cell may turn at its far corner.
     bool found = false;
-    for (int k = -200; k <= 200 && !found; ++k) {
-      const double t = k * 0.5 * h / 200;
-      found = inside(q[0] + t, q[1]) != c || inside(q[0], q[1] + t) != c;
+    for (double z : {0.0, -0.5 * h}) {
+      const bool c = inside3(q[0], q[1], z);
+      for (int k = -400; k <= 400 && !found; ++k) {
+        const double t = k * h / 400;
+        found = inside3(q[0] + t, q[1], z) != c || inside3(q[0], q[1] + t, z) != c ||
+                inside3(q[0] + t, q[1] + t, z) != c || inside3(q[0] + t, q[1] - t, z) != c;
+      }
     }
     far += !found;
   }
