@@ -137,10 +137,21 @@ class Sampler {
       std::vector<std::uint64_t> children;
       for (std::uint64_t key : cells) {
         const Coord c = unpack(key);
+        // The 27 points of the cell at the finer stride; a point on the far side of an axis is
+        // left to the flagged neighbour that has it as its near corner (fewer duplicates to
+        // sort away).
+        bool neighbour[8];
+        for (int n = 1; n < 8; ++n)
+          neighbour[n] =
+              std::binary_search(cells.begin(), cells.end(),
+                                 pack(c.x() + (n & 1), c.y() + ((n >> 1) & 1), c.z() + (n >> 2)));
         for (int di = 0; di <= 2; ++di)
           for (int dj = 0; dj <= 2; ++dj)
-            for (int dk = 0; dk <= 2; ++dk)
+            for (int dk = 0; dk <= 2; ++dk) {
+              const int n = (di == 2) | ((dj == 2) << 1) | ((dk == 2) << 2);
+              if (n && neighbour[n]) continue;
               push_point(keys, c.x() * s + di * half, c.y() * s + dj * half, c.z() * s + dk * half);
+            }
         for (int d = 0; d < 8; ++d)
           push_cell(children, 2 * c.x() + (d & 1), 2 * c.y() + ((d >> 1) & 1),
                     2 * c.z() + (d >> 2));
@@ -226,17 +237,21 @@ class Sampler {
   void close_surface(std::vector<std::uint64_t> frontier) {
     std::vector<std::uint64_t> crossing;
     std::vector<std::uint64_t> seen = frontier;  // sorted
+    bool corners_known = true;                   // the first frontier is the refined voxels
     while (!frontier.empty()) {
-      // Evaluate the corners of the frontier cells (already done for refined cells).
-      std::vector<std::uint64_t> keys;
-      for (std::uint64_t key : frontier) {
-        const Coord c = unpack(key);
-        for (int d = 0; d < 8; ++d)
-          push_point(keys, c.x() + (d & 1), c.y() + ((d >> 1) & 1), c.z() + (d >> 2));
+      // Evaluate the corners of new frontier cells.
+      if (!corners_known) {
+        std::vector<std::uint64_t> keys;
+        for (std::uint64_t key : frontier) {
+          const Coord c = unpack(key);
+          for (int d = 0; d < 8; ++d)
+            push_point(keys, c.x() + (d & 1), c.y() + ((d >> 1) & 1), c.z() + (d >> 2));
+        }
+        tbb::parallel_sort(keys.begin(), keys.end());
+        keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+        evaluate(keys);
       }
-      tbb::parallel_sort(keys.begin(), keys.end());
-      keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
-      evaluate(keys);
+      corners_known = false;
       std::vector<std::uint64_t> next;
       auto acc = grid_->getConstAccessor();
       for (std::uint64_t key : frontier) {

@@ -58,6 +58,8 @@ class Solid {
   /// The signed distance to the box and clip constraints alone, model units (<= 0 where they
   /// keep the point).
   double constraint(double x, double y, double z) const;
+  /// True when clip planes cut the box.
+  bool has_clip() const { return !clip_.empty(); }
 
  private:
   Classifier classifier_;

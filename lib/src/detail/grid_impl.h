@@ -49,6 +49,8 @@ inline bool virtual_value(const GridGeometry& geo, const Solid& solid, int i, in
     *value = 1.0f;
     return true;
   }
+  // Every point in the index range is inside the box; only clip planes can exclude it.
+  if (!solid.has_clip()) return false;
   const double c = solid.constraint(geo.origin[0] + i * geo.voxel, geo.origin[1] + j * geo.voxel,
                                     geo.origin[2] + k * geo.voxel);
   if (c > 0) {
