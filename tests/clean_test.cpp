@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-#include "clean_fixtures.h"
+#include "test_meshes.h"
 #include "qjulia/error.h"
 #include "qjulia/print.h"
 

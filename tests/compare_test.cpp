@@ -18,53 +18,13 @@
 #include "qjulia/export.h"
 #include "qjulia/params.h"
 #include "qjulia/pipeline.h"
+#include "test_meshes.h"
 
 namespace {
 
 using qjulia::TriMesh;
 
-// An icosphere of radius 1: the icosahedron subdivided `level` times, projected on the sphere.
-TriMesh icosphere(int level) {
-  const float t = (1.0f + std::sqrt(5.0f)) / 2;
-  TriMesh m;
-  m.positions = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
-                 {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
-  m.triangles = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
-                 {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-                 {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
-                 {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
-  auto normalize = [](std::array<float, 3>& p) {
-    const float n = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
-    for (auto& x : p) x /= n;
-  };
-  for (auto& p : m.positions) normalize(p);
-  for (int l = 0; l < level; ++l) {
-    std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
-    auto midpoint = [&](uint32_t a, uint32_t b) {
-      const auto key = std::minmax(a, b);
-      auto it = mid.find(key);
-      if (it != mid.end()) return it->second;
-      std::array<float, 3> p;
-      for (int k = 0; k < 3; ++k) p[k] = (m.positions[a][k] + m.positions[b][k]) / 2;
-      normalize(p);
-      m.positions.push_back(p);
-      const uint32_t index = static_cast<uint32_t>(m.positions.size() - 1);
-      mid.emplace(key, index);
-      return index;
-    };
-    std::vector<std::array<uint32_t, 3>> next;
-    for (const auto& f : m.triangles) {
-      const uint32_t ab = midpoint(f[0], f[1]), bc = midpoint(f[1], f[2]),
-                     ca = midpoint(f[2], f[0]);
-      next.push_back({f[0], ab, ca});
-      next.push_back({f[1], bc, ab});
-      next.push_back({f[2], ca, bc});
-      next.push_back({ab, bc, ca});
-    }
-    m.triangles = std::move(next);
-  }
-  return m;
-}
+using fixtures::icosphere;
 
 // The unit cube [0, 1]^3, outward, 12 triangles.
 TriMesh cube() {

@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "clean_fixtures.h"
+#include "test_meshes.h"
 #include "qjulia/error.h"
 
 using qjulia::TriMesh;

@@ -13,6 +13,7 @@
 #include <set>
 
 #include "qjulia/error.h"
+#include "test_meshes.h"
 
 namespace fs = std::filesystem;
 using qjulia::InvalidInput;
@@ -21,41 +22,7 @@ using qjulia::TriMesh;
 
 namespace {
 
-/// An icosphere of radius 1 (closed, outward), `level` times subdivided: 20 * 4^level faces.
-TriMesh icosphere(int level) {
-  const float t = (1.0f + std::sqrt(5.0f)) / 2.0f;
-  TriMesh m;
-  m.positions = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
-                 {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
-  m.triangles = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
-                 {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-                 {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
-                 {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
-  auto normalize = [](std::array<float, 3> p) {
-    const float l = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
-    return std::array<float, 3>{p[0] / l, p[1] / l, p[2] / l};
-  };
-  for (auto& p : m.positions) p = normalize(p);
-  for (int l = 0; l < level; ++l) {
-    std::map<std::pair<uint32_t, uint32_t>, uint32_t> mid;
-    auto midpoint = [&](uint32_t a, uint32_t b) {
-      const auto key = std::minmax(a, b);
-      const auto it = mid.find(key);
-      if (it != mid.end()) return it->second;
-      const auto& p = m.positions[a];
-      const auto& q = m.positions[b];
-      m.positions.push_back(normalize({p[0] + q[0], p[1] + q[1], p[2] + q[2]}));
-      return mid[key] = uint32_t(m.positions.size() - 1);
-    };
-    std::vector<std::array<uint32_t, 3>> next;
-    for (const auto& f : m.triangles) {
-      const uint32_t a = midpoint(f[0], f[1]), b = midpoint(f[1], f[2]), c = midpoint(f[2], f[0]);
-      next.insert(next.end(), {{f[0], a, c}, {f[1], b, a}, {f[2], c, b}, {a, b, c}});
-    }
-    m.triangles = std::move(next);
-  }
-  return m;
-}
+using fixtures::icosphere;
 
 /// Colours from the position, spanning [0, 1] (0 and 1 exactly at the poles).
 void paint(TriMesh& m) {

@@ -2,10 +2,10 @@
 #include "qjulia/render.h"
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 #include <png.h>
 #include <sys/wait.h>
 #include <tbb/global_control.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstdio>
@@ -19,51 +19,12 @@
 #include "qjulia/error.h"
 #include "qjulia/export.h"
 #include "render_args.h"
+#include "test_meshes.h"
 
 namespace qjulia {
 namespace {
 
-/// The unit icosphere: an icosahedron subdivided `levels` times, vertices on the unit sphere,
-/// counter-clockwise seen from outside.
-TriMesh icosphere(int levels) {
-  const float t = (1.0f + std::sqrt(5.0f)) / 2.0f;
-  TriMesh m;
-  m.positions = {{-1, t, 0},  {1, t, 0},  {-1, -t, 0}, {1, -t, 0}, {0, -1, t},  {0, 1, t},
-                 {0, -1, -t}, {0, 1, -t}, {t, 0, -1},  {t, 0, 1},  {-t, 0, -1}, {-t, 0, 1}};
-  m.triangles = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
-                 {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
-                 {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
-                 {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
-  auto normalize = [](std::array<float, 3> p) {
-    const float n = std::sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]);
-    return std::array<float, 3>{p[0] / n, p[1] / n, p[2] / n};
-  };
-  for (auto& p : m.positions) p = normalize(p);
-  for (int level = 0; level < levels; ++level) {
-    std::map<std::pair<uint32_t, uint32_t>, uint32_t> midpoints;
-    auto midpoint = [&](uint32_t a, uint32_t b) {
-      const auto key = std::minmax(a, b);
-      auto it = midpoints.find(key);
-      if (it != midpoints.end()) return it->second;
-      const auto &pa = m.positions[a], &pb = m.positions[b];
-      m.positions.push_back(normalize({pa[0] + pb[0], pa[1] + pb[1], pa[2] + pb[2]}));
-      const auto index = static_cast<uint32_t>(m.positions.size() - 1);
-      midpoints.emplace(key, index);
-      return index;
-    };
-    std::vector<std::array<uint32_t, 3>> next;
-    for (const auto& f : m.triangles) {
-      const uint32_t ab = midpoint(f[0], f[1]), bc = midpoint(f[1], f[2]),
-                     ca = midpoint(f[2], f[0]);
-      next.push_back({f[0], ab, ca});
-      next.push_back({f[1], bc, ab});
-      next.push_back({f[2], ca, bc});
-      next.push_back({ab, bc, ca});
-    }
-    m.triangles = std::move(next);
-  }
-  return m;
-}
+using fixtures::icosphere;
 
 const std::uint8_t* pixel(const Image& im, int x, int y) {
   return &im.rgb[(static_cast<std::size_t>(y) * im.width + x) * 3];
@@ -321,8 +282,8 @@ TEST(Png, WriteReadRoundTripIsExact) {
   im.rgb.resize(37 * 23 * 3);
   for (std::size_t i = 0; i < im.rgb.size(); ++i)
     im.rgb[i] = static_cast<std::uint8_t>(i * 7 + i / 5);
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("qjulia_render_test_" + std::to_string(::getpid()));
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("qjulia_render_test_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   const std::string path = (dir / "round.png").string();
   write_png(path, im);

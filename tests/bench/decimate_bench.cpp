@@ -12,7 +12,7 @@
 #include <cstring>
 #include <string>
 
-#include "../clean_fixtures.h"
+#include "../test_meshes.h"
 #include "qjulia/clean.h"
 #include "qjulia/decimate.h"
 #include "qjulia/params.h"

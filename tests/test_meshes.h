@@ -1,5 +1,5 @@
 #pragma once
-// Meshes built in code for the clean/decimate/print tests and the decimation benchmark, and a
+// Meshes built in code for the tests and benchmarks (spheres, boxes, noisy spheres), and a
 // small independent topology checker (the tests do not rely on the library's own checks).
 #include <algorithm>
 #include <array>
