@@ -411,7 +411,8 @@ GridGeometry grid_geometry(const Params& params) {
     // never pass through grid points.
     g.origin[a] = params.bounds.min[a] + 0.5 * g.voxel;
     const double cells = (params.bounds.max[a] - params.bounds.min[a]) / g.voxel;
-    g.points[a] = static_cast<int>(std::floor(cells - 0.5 + 1e-9)) + 1;
+    // Points strictly inside the box: (i + 1/2) * voxel < extent.
+    g.points[a] = std::max(1, static_cast<int>(std::ceil(cells - 0.5 - 1e-9)));
   }
   return g;
 }

@@ -101,7 +101,7 @@ int cmd_mesh(const Tokens& tokens) {
   eopts.params_json = params_json;
   eopts.unit = result.stats.unit;
   write_mesh(*out, result.mesh, eopts);
-  written.add(*out);
+  for (const auto& f : output_files(*out)) written.add(f);  // .gltf comes with its .bin
   if (auto v = args.get("vdb")) {
     result.grid->write_vdb(*v, params_json);
     written.add(*v);
