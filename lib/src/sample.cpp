@@ -36,6 +36,19 @@ void push_point(std::vector<std::uint64_t>& keys, int i, int j, int k) {
   if (i >= 0 && j >= 0 && k >= 0) keys.push_back(pack(i, j, k));
 }
 
+// The vectors one after the other.
+std::vector<std::uint64_t> concatenate(std::vector<std::vector<std::uint64_t>>& parts) {
+  std::size_t total = 0;
+  for (const auto& part : parts) total += part.size();
+  std::vector<std::uint64_t> out;
+  out.reserve(total);
+  for (auto& part : parts) {
+    out.insert(out.end(), part.begin(), part.end());
+    std::vector<std::uint64_t>().swap(part);
+  }
+  return out;
+}
+
 // Adds cell (i, j, k) unless it lies wholly below the grid.
 void push_cell(std::vector<std::uint64_t>& cells, int i, int j, int k) {
   if (i >= -1 && j >= -1 && k >= -1) cells.push_back(pack(i, j, k));
@@ -133,29 +146,39 @@ class Sampler {
     // 2. Refine flagged cells level by level down to single voxels.
     while (s > 1) {
       const int half = s / 2;
-      keys.clear();
-      std::vector<std::uint64_t> children;
-      for (std::uint64_t key : cells) {
-        const Coord c = unpack(key);
-        // The 27 points of the cell at the finer stride; a point on the far side of an axis is
-        // left to the flagged neighbour that has it as its near corner (fewer duplicates to
-        // sort away).
-        bool neighbour[8];
-        for (int n = 1; n < 8; ++n)
-          neighbour[n] =
-              std::binary_search(cells.begin(), cells.end(),
-                                 pack(c.x() + (n & 1), c.y() + ((n >> 1) & 1), c.z() + (n >> 2)));
-        for (int di = 0; di <= 2; ++di)
-          for (int dj = 0; dj <= 2; ++dj)
-            for (int dk = 0; dk <= 2; ++dk) {
-              const int n = (di == 2) | ((dj == 2) << 1) | ((dk == 2) << 2);
-              if (n && neighbour[n]) continue;
-              push_point(keys, c.x() * s + di * half, c.y() * s + dj * half, c.z() * s + dk * half);
-            }
-        for (int d = 0; d < 8; ++d)
-          push_cell(children, 2 * c.x() + (d & 1), 2 * c.y() + ((d >> 1) & 1),
-                    2 * c.z() + (d >> 2));
-      }
+      // Per chunk of cells, in parallel; concatenated in chunk order (deterministic).
+      constexpr std::size_t kChunk = 4096;
+      std::vector<std::vector<std::uint64_t>> chunk_keys((cells.size() + kChunk - 1) / kChunk),
+          chunk_children(chunk_keys.size());
+      tbb::parallel_for(std::size_t{0}, chunk_keys.size(), [&](std::size_t chunk) {
+        auto& out_keys = chunk_keys[chunk];
+        auto& out_children = chunk_children[chunk];
+        for (std::size_t n = chunk * kChunk; n < std::min(cells.size(), (chunk + 1) * kChunk);
+             ++n) {
+          const Coord c = unpack(cells[n]);
+          // The 27 points of the cell at the finer stride; a point on the far side of an axis
+          // is left to the flagged neighbour that has it as its near corner (fewer duplicates
+          // to sort away).
+          bool neighbour[8];
+          for (int q = 1; q < 8; ++q)
+            neighbour[q] =
+                std::binary_search(cells.begin(), cells.end(),
+                                   pack(c.x() + (q & 1), c.y() + ((q >> 1) & 1), c.z() + (q >> 2)));
+          for (int di = 0; di <= 2; ++di)
+            for (int dj = 0; dj <= 2; ++dj)
+              for (int dk = 0; dk <= 2; ++dk) {
+                const int q = (di == 2) | ((dj == 2) << 1) | ((dk == 2) << 2);
+                if (q && neighbour[q]) continue;
+                push_point(out_keys, c.x() * s + di * half, c.y() * s + dj * half,
+                           c.z() * s + dk * half);
+              }
+          for (int d = 0; d < 8; ++d)
+            push_cell(out_children, 2 * c.x() + (d & 1), 2 * c.y() + ((d >> 1) & 1),
+                      2 * c.z() + (d >> 2));
+        }
+      });
+      keys = concatenate(chunk_keys);
+      std::vector<std::uint64_t> children = concatenate(chunk_children);
       tbb::parallel_sort(keys.begin(), keys.end());
       keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
       evaluate(keys);
@@ -252,32 +275,42 @@ class Sampler {
         evaluate(keys);
       }
       corners_known = false;
-      std::vector<std::uint64_t> next;
-      auto acc = grid_->getConstAccessor();
-      for (std::uint64_t key : frontier) {
-        const Coord c = unpack(key);
-        float v[8];
-        int inside = 0;
-        for (int d = 0; d < 8; ++d) {
-          v[d] = value(acc, c.x() + (d & 1), c.y() + ((d >> 1) & 1), c.z() + (d >> 2));
-          inside += v[d] <= 0;
-        }
-        if (inside == 0 || inside == 8) continue;
-        crossing.push_back(key);
-        // Faces: axis a, side t (corner bit a equals t).
-        for (int a = 0; a < 3; ++a)
-          for (int t = 0; t < 2; ++t) {
-            int face_inside = 0;
-            for (int d = 0; d < 8; ++d)
-              if (((d >> a) & 1) == t) face_inside += v[d] <= 0;
-            if (face_inside == 0 || face_inside == 4) continue;
-            Coord n = c;
-            n[a] += t ? 1 : -1;
-            if (n[a] < -1 || n[a] >= geo_.points[a]) continue;
-            const std::uint64_t nk = pack(n.x(), n.y(), n.z());
-            if (!std::binary_search(seen.begin(), seen.end(), nk)) next.push_back(nk);
+      // Per chunk of frontier cells, in parallel; concatenated in chunk order.
+      constexpr std::size_t kChunk = 4096;
+      const std::size_t chunks = (frontier.size() + kChunk - 1) / kChunk;
+      std::vector<std::vector<std::uint64_t>> chunk_next(chunks), chunk_crossing(chunks);
+      tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t chunk) {
+        auto acc = grid_->getConstAccessor();
+        for (std::size_t n = chunk * kChunk; n < std::min(frontier.size(), (chunk + 1) * kChunk);
+             ++n) {
+          const Coord c = unpack(frontier[n]);
+          float v[8];
+          int inside = 0;
+          for (int d = 0; d < 8; ++d) {
+            v[d] = value(acc, c.x() + (d & 1), c.y() + ((d >> 1) & 1), c.z() + (d >> 2));
+            inside += v[d] <= 0;
           }
-      }
+          if (inside == 0 || inside == 8) continue;
+          chunk_crossing[chunk].push_back(frontier[n]);
+          // Faces: axis a, side t (corner bit a equals t).
+          for (int a = 0; a < 3; ++a)
+            for (int t = 0; t < 2; ++t) {
+              int face_inside = 0;
+              for (int d = 0; d < 8; ++d)
+                if (((d >> a) & 1) == t) face_inside += v[d] <= 0;
+              if (face_inside == 0 || face_inside == 4) continue;
+              Coord nb = c;
+              nb[a] += t ? 1 : -1;
+              if (nb[a] < -1 || nb[a] >= geo_.points[a]) continue;
+              const std::uint64_t nk = pack(nb.x(), nb.y(), nb.z());
+              if (!std::binary_search(seen.begin(), seen.end(), nk))
+                chunk_next[chunk].push_back(nk);
+            }
+        }
+      });
+      std::vector<std::uint64_t> next = concatenate(chunk_next);
+      const auto found = concatenate(chunk_crossing);
+      crossing.insert(crossing.end(), found.begin(), found.end());
       tbb::parallel_sort(next.begin(), next.end());
       next.erase(std::unique(next.begin(), next.end()), next.end());
       if (!next.empty()) {
