@@ -116,5 +116,28 @@ TEST(Pipeline, DustRemovalRemovesOnlyComponentsBelowTheThreshold) {
   EXPECT_EQ(all.stats.measure.components.size(), c.components_before);
 }
 
+TEST(Pipeline, UnitBallAt256DecimatedTo2000FacesStaysClosedAndOnTheSphere) {
+  Params p = preset("unit-ball");
+  p.resolution = 256;
+  p.mesh.faces = 2000;
+  const PipelineResult r = run_pipeline(p);
+  const MeshMeasure& m = r.stats.measure;
+  EXPECT_GE(m.faces, 1000u);
+  EXPECT_LE(m.faces, 2000u);
+  EXPECT_TRUE(m.closed);
+  EXPECT_TRUE(m.manifold);
+  EXPECT_TRUE(m.oriented);
+  ASSERT_EQ(m.components.size(), 1u);
+  EXPECT_EQ(m.components[0].genus, 0);
+  double worst = 0;
+  for (const auto& v : r.mesh.positions)
+    worst = std::max(
+        worst,
+        std::abs(std::sqrt(double(v[0]) * v[0] + double(v[1]) * v[1] + double(v[2]) * v[2]) - 1.0));
+  EXPECT_LT(worst, 0.02);
+  ASSERT_TRUE(r.stats.decimate.has_value());
+  EXPECT_GT(r.stats.decimate->faces_before, 100000u);
+}
+
 }  // namespace
 }  // namespace qjulia
