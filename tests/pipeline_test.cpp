@@ -139,5 +139,37 @@ TEST(Pipeline, UnitBallAt256DecimatedTo2000FacesStaysClosedAndOnTheSphere) {
   EXPECT_GT(r.stats.decimate->faces_before, 100000u);
 }
 
+TEST(Pipeline, BasinColoursOfNewtonsCubicShowItsTwoKindsOfRoots) {
+  Params p = preset("newton-cubic");
+  p.resolution = 48;
+  p.mesh.color = ColorMode::kBasin;
+  const PipelineResult r = run_pipeline(p);
+  ASSERT_EQ(r.mesh.colors.size(), r.mesh.positions.size());
+  // Every vertex gets the colour of the root its outside neighbour converges to. In quaternions
+  // h^3 = 1 has the root 1 and a whole sphere of roots -1/2 + (sqrt(3)/2) u (u a unit imaginary
+  // quaternion: the two complex roots revolved about the real axis), so two basins.
+  std::set<std::array<float, 3>> colours(r.mesh.colors.begin(), r.mesh.colors.end());
+  const std::array<float, 3> grey{0.6f, 0.6f, 0.6f};
+  colours.erase(grey);
+  EXPECT_EQ(colours.size(), 2u);
+}
+
+TEST(Pipeline, IterationColoursVaryAndStayInRange) {
+  Params p = preset("classic-julia");
+  p.resolution = 48;
+  p.mesh.color = ColorMode::kIterations;
+  const PipelineResult r = run_pipeline(p);
+  ASSERT_EQ(r.mesh.colors.size(), r.mesh.positions.size());
+  std::set<std::array<float, 3>> colours;
+  for (const auto& c : r.mesh.colors) {
+    for (float x : c) {
+      EXPECT_GE(x, 0.0f);
+      EXPECT_LE(x, 1.0f);
+    }
+    colours.insert(c);
+  }
+  EXPECT_GT(colours.size(), 100u);
+}
+
 }  // namespace
 }  // namespace qjulia

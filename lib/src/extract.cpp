@@ -202,7 +202,9 @@ std::uint64_t colorize(TriMesh& mesh, const Solid& solid, double voxel, ColorMod
     return orbits.size();
   }
   // Basins: cluster the final iterates of converged / bounded orbits; unconverged or escaped
-  // orbits get grey.
+  // orbits get grey. An attractor is identified by its real part and the length of its
+  // imaginary part: a map with real coefficients has whole spheres of attractors (rotations of
+  // a complex root about the real axis), which are one basin, as in the complex picture.
   std::vector<Quat> attractors;
   const double tol = std::max(10 * p.bailout, 1e-3);
   std::vector<int> basin(orbits.size(), -1);
@@ -210,11 +212,13 @@ std::uint64_t colorize(TriMesh& mesh, const Solid& solid, double voxel, ColorMod
     const bool settled =
         p.method == Method::kCutoff ? orbits[n].exit_step >= 0 : orbits[n].exit_step < 0;
     if (!settled || !is_finite(orbits[n].last)) continue;
+    const Quat& q = orbits[n].last;
+    const Quat key{q.w, std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z), 0, 0};
     int found = -1;
     for (std::size_t a = 0; a < attractors.size() && found < 0; ++a)
-      if (abs(attractors[a] - orbits[n].last) < tol) found = static_cast<int>(a);
+      if (abs(attractors[a] - key) < tol) found = static_cast<int>(a);
     if (found < 0 && attractors.size() < 64) {
-      attractors.push_back(orbits[n].last);
+      attractors.push_back(key);
       found = static_cast<int>(attractors.size()) - 1;
     }
     basin[n] = found;
