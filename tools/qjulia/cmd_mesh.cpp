@@ -95,6 +95,11 @@ int cmd_mesh(const Tokens& tokens) {
   PipelineResult result = run_pipeline(params, popts);
   bar.finish();
 
+  if (result.mesh.triangles.empty())
+    throw InvalidInput(
+        std::string("the solid is empty with these parameters (no grid point of the box "
+                    "is in it); nothing written. Hint: check the bailout, the "
+                    "iterations and the box (qjulia params shows them)"));
   OutputFiles written;
   const std::string params_json = params_to_json(params);
   ExportOptions eopts;
