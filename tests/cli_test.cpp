@@ -308,5 +308,17 @@ TEST_F(Cli, MeshWritesTheMeshAndTheStatsOfTheUnitBall) {
   EXPECT_NE(r.out.find("ball.ply"), std::string::npos) << r.out;
 }
 
+TEST_F(Cli, MeshToStlWritesTheParametersBesideIt) {
+  const CliRun r =
+      run("mesh --preset unit-ball --resolution 24 --iterations 7 --quiet -o ball.stl");
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_TRUE(fs::exists(work_ / "ball.stl.json"));
+  Params expected = preset("unit-ball");
+  expected.resolution = 24;
+  expected.iterations = 7;
+  const Params written = parse_params(read_text(work_ / "ball.stl.json"));
+  EXPECT_EQ(params_to_json(written), params_to_json(expected));
+}
+
 }  // namespace
 }  // namespace qjulia

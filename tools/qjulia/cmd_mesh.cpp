@@ -107,6 +107,13 @@ int cmd_mesh(const Tokens& tokens) {
   eopts.unit = result.stats.unit;
   write_mesh(*out, result.mesh, eopts);
   for (const auto& f : output_files(*out)) written.add(f);  // .gltf comes with its .bin
+  std::string sidecar;
+  if (format_from_path(*out) == MeshFormat::kStl) {
+    // STL has no room for the parameters: they go into a sidecar file.
+    sidecar = *out + ".json";
+    write_file_atomic(sidecar, params_json);
+    written.add(sidecar);
+  }
   if (auto v = args.get("vdb")) {
     result.grid->write_vdb(*v, params_json);
     written.add(*v);
@@ -127,6 +134,7 @@ int cmd_mesh(const Tokens& tokens) {
   std::printf("mesh:  %s (%zu vertices, %zu faces, %s, %s, volume %.6g, area %.6g)\n", out->c_str(),
               m.vertices, m.faces, m.closed ? "closed" : "OPEN",
               m.manifold ? "manifold" : "NON-MANIFOLD", m.volume, m.area);
+  if (!sidecar.empty()) std::printf("parameters: %s\n", sidecar.c_str());
   if (stats_path) std::printf("stats: %s\n", stats_path->c_str());
   if (auto v = args.get("vdb")) std::printf("grid:  %s\n", v->c_str());
   if (preview) std::printf("preview: %s\n", preview->c_str());
