@@ -58,11 +58,15 @@ Quat Classifier::to_quaternion(double x, double y, double z) const {
 
 Orbit Classifier::orbit(double x, double y, double z) const {
   const Quat p = to_quaternion(x, y, z);
-  Quat consts[kMaxConstants];
-  std::copy(constants_.begin(), constants_.end(), consts);
+  // Julia mode evaluates with the constants as they are; Mandelbrot mode needs a copy with c
+  // replaced by the sampled point.
+  const Quat* consts = constants_.data();
+  Quat local[kMaxConstants];
   Quat h = p;
   if (c_index_ >= 0) {
-    consts[c_index_] = p;
+    std::copy(constants_.begin(), constants_.end(), local);
+    local[c_index_] = p;
+    consts = local;
     h = params_.start;
   }
   const int n_iter = params_.iterations;
