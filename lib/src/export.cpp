@@ -93,38 +93,20 @@ namespace {
 /// area-weighted face normals; (0, 0, 1) where nothing defines a direction.
 std::vector<std::array<float, 3>> unit_normals(const TriMesh& mesh) {
   const std::size_t nv = mesh.positions.size();
+  std::vector<std::array<float, 3>> computed;  // made only when a given normal is unusable
   std::vector<std::array<float, 3>> out(nv);
-  std::vector<std::array<double, 3>> acc;
-  auto need_computed = [&] {
-    if (!acc.empty()) return;
-    acc.assign(nv, {0, 0, 0});
-    for (const auto& t : mesh.triangles) {
-      const auto& a = mesh.positions[t[0]];
-      const auto& b = mesh.positions[t[1]];
-      const auto& c = mesh.positions[t[2]];
-      const double u[3] = {double(b[0]) - a[0], double(b[1]) - a[1], double(b[2]) - a[2]};
-      const double v[3] = {double(c[0]) - a[0], double(c[1]) - a[1], double(c[2]) - a[2]};
-      // The cross product's length is twice the area: this is the area weighting.
-      const double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
-                           u[0] * v[1] - u[1] * v[0]};
-      for (int k = 0; k < 3; ++k)
-        for (int i = 0; i < 3; ++i) acc[t[k]][i] += n[i];
-    }
-  };
-  auto normalize = [](double x, double y, double z, std::array<float, 3>& n) {
-    const double len = std::sqrt(x * x + y * y + z * z);
-    if (!(len > 1e-300) || !std::isfinite(len)) return false;
-    n = {float(x / len), float(y / len), float(z / len)};
-    return true;
-  };
   const bool given = mesh.normals.size() == nv;
   for (std::size_t v = 0; v < nv; ++v) {
     if (given) {
       const auto& g = mesh.normals[v];
-      if (normalize(g[0], g[1], g[2], out[v])) continue;
+      const double len = std::sqrt(double(g[0]) * g[0] + double(g[1]) * g[1] + double(g[2]) * g[2]);
+      if (len > 1e-300 && std::isfinite(len)) {
+        out[v] = {float(g[0] / len), float(g[1] / len), float(g[2] / len)};
+        continue;
+      }
     }
-    need_computed();
-    if (!normalize(acc[v][0], acc[v][1], acc[v][2], out[v])) out[v] = {0, 0, 1};
+    if (computed.empty()) computed = area_weighted_normals(mesh);
+    out[v] = computed[v];
   }
   return out;
 }

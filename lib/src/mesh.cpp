@@ -193,7 +193,7 @@ MeshMeasure measure(const TriMesh& mesh) {
   return m;
 }
 
-void compute_normals(TriMesh& mesh) {
+std::vector<std::array<float, 3>> area_weighted_normals(const TriMesh& mesh) {
   std::vector<std::array<double, 3>> acc(mesh.positions.size(), {0, 0, 0});
   for (const auto& t : mesh.triangles) {
     const auto &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
@@ -204,15 +204,18 @@ void compute_normals(TriMesh& mesh) {
     for (auto v : t)
       for (int k = 0; k < 3; ++k) acc[v][k] += n[k];
   }
-  mesh.normals.resize(mesh.positions.size());
+  std::vector<std::array<float, 3>> normals(acc.size());
   for (std::size_t v = 0; v < acc.size(); ++v) {
     const double len =
         std::sqrt(acc[v][0] * acc[v][0] + acc[v][1] * acc[v][1] + acc[v][2] * acc[v][2]);
     if (len > 0 && std::isfinite(len))
-      mesh.normals[v] = {float(acc[v][0] / len), float(acc[v][1] / len), float(acc[v][2] / len)};
+      normals[v] = {float(acc[v][0] / len), float(acc[v][1] / len), float(acc[v][2] / len)};
     else
-      mesh.normals[v] = {0, 0, 1};
+      normals[v] = {0, 0, 1};
   }
+  return normals;
 }
+
+void compute_normals(TriMesh& mesh) { mesh.normals = area_weighted_normals(mesh); }
 
 }  // namespace qjulia

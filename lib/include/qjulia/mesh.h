@@ -54,8 +54,11 @@ struct MeshMeasure {
 /// Measures `mesh`. Runs in O(F log F).
 MeshMeasure measure(const TriMesh& mesh);
 
-/// Sets mesh.normals to area-weighted vertex normals (unit length; (0,0,1) for isolated
-/// vertices).
+/// Area-weighted vertex normals of `mesh`: #V unit vectors, (0, 0, 1) where no face defines a
+/// direction (isolated vertices, zero-area fans).
+std::vector<std::array<float, 3>> area_weighted_normals(const TriMesh& mesh);
+
+/// Sets mesh.normals to area_weighted_normals(mesh).
 void compute_normals(TriMesh& mesh);
 
 }  // namespace qjulia
