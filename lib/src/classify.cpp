@@ -154,6 +154,12 @@ double Solid::constraint(double x, double y, double z) const {
   return c;
 }
 
+std::optional<float> Solid::excluded_field(double x, double y, double z) const {
+  const double c = constraint(x, y, z) / voxel_;
+  if (c > 0) return static_cast<float>(std::max(c, 1e-6));
+  return std::nullopt;
+}
+
 float Solid::field(double x, double y, double z) const {
   const double c = constraint(x, y, z) / voxel_;
   if (c > 0) return static_cast<float>(std::max(c, 1e-6));

@@ -84,9 +84,7 @@ class Values {
   Values(const SampledGrid::Impl& impl, const Solid& solid)
       : impl_(impl), solid_(solid), acc_(impl.grid->getConstAccessor()) {}
   float operator()(int i, int j, int k) const {
-    float v;
-    if (detail::virtual_value(impl_.geometry, solid_, i, j, k, &v)) return v;
-    return acc_.getValue(Coord(i, j, k));
+    return detail::point_value(impl_.geometry, solid_, acc_, i, j, k);
   }
 
  private:

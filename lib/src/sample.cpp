@@ -105,9 +105,7 @@ class Sampler {
   // The value at a point that was evaluated (or is virtual).
   template <typename Accessor>
   float value(const Accessor& acc, int i, int j, int k) const {
-    float v;
-    if (is_virtual(i, j, k, &v)) return v;
-    return acc.getValue(Coord(i, j, k));
+    return detail::point_value(geo_, solid_, acc, i, j, k);
   }
 
   void report(double fraction) {

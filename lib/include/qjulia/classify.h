@@ -3,6 +3,7 @@
 /// The exact per-point classifier and the continuous field of DESIGN.md.
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "qjulia/formula.h"
@@ -58,6 +59,9 @@ class Solid {
   /// The signed distance to the box and clip constraints alone, model units (<= 0 where they
   /// keep the point).
   double constraint(double x, double y, double z) const;
+  /// The field of a point the box or a clip plane excludes (the constraint in voxels, > 0), or
+  /// nothing when the constraints keep it.
+  std::optional<float> excluded_field(double x, double y, double z) const;
   /// True when clip planes cut the box.
   bool has_clip() const { return !clip_.empty(); }
 

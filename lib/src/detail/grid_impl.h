@@ -51,13 +51,19 @@ inline bool virtual_value(const GridGeometry& geo, const Solid& solid, int i, in
   }
   // Every point in the index range is inside the box; only clip planes can exclude it.
   if (!solid.has_clip()) return false;
-  const double c = solid.constraint(geo.origin[0] + i * geo.voxel, geo.origin[1] + j * geo.voxel,
-                                    geo.origin[2] + k * geo.voxel);
-  if (c > 0) {
-    *value = static_cast<float>(std::max(c / geo.voxel, 1e-6));
-    return true;
-  }
-  return false;
+  const auto excluded = solid.excluded_field(
+      geo.origin[0] + i * geo.voxel, geo.origin[1] + j * geo.voxel, geo.origin[2] + k * geo.voxel);
+  if (excluded) *value = *excluded;
+  return excluded.has_value();
+}
+
+/// The value at grid point (i, j, k): virtual, or read from the sampled grid through `acc`.
+template <typename Accessor>
+float point_value(const GridGeometry& geo, const Solid& solid, const Accessor& acc, int i, int j,
+                  int k) {
+  float v;
+  if (virtual_value(geo, solid, i, j, k, &v)) return v;
+  return acc.getValue(openvdb::Coord(i, j, k));
 }
 
 }  // namespace detail
