@@ -1,4 +1,4 @@
-#include "qjulia/classify.h"
+#include "qjulia/field/classify.h"
 
 #include <gtest/gtest.h>
 
@@ -10,8 +10,8 @@
 #include <string>
 #include <vector>
 
-#include "qjulia/error.h"
-#include "qjulia/params.h"
+#include "qjulia/base/error.h"
+#include "qjulia/field/params.h"
 
 namespace qjulia {
 namespace {

@@ -1,13 +1,13 @@
 // Tests of clean(), count_self_intersections() and printability().
-#include "qjulia/clean.h"
+#include "qjulia/mesh/clean.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "test_meshes.h"
-#include "qjulia/error.h"
-#include "qjulia/print.h"
+#include "qjulia/base/error.h"
+#include "qjulia/mesh/print.h"
 
 using qjulia::TriMesh;
 

@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "qjulia/params.h"
+#include "qjulia/field/params.h"
 
 namespace qjulia {
 namespace {

@@ -1,6 +1,6 @@
 // compare: distances between surfaces with known answers (identical, refined, shifted meshes),
 // and the `qjulia compare` / `qjulia experiment` commands end to end.
-#include "qjulia/compare.h"
+#include "qjulia/mesh/compare.h"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -14,10 +14,10 @@
 #include <string>
 #include <utility>
 
-#include "qjulia/error.h"
-#include "qjulia/export.h"
-#include "qjulia/params.h"
-#include "qjulia/pipeline.h"
+#include "qjulia/base/error.h"
+#include "qjulia/io/mesh_io.h"
+#include "qjulia/field/params.h"
+#include "qjulia/pipeline/pipeline.h"
 #include "test_meshes.h"
 
 namespace {

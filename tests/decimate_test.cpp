@@ -1,5 +1,5 @@
 // Tests of decimate(): face budget, error bound (checked independently), topology.
-#include "qjulia/decimate.h"
+#include "qjulia/mesh/decimate.h"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <cmath>
 
 #include "test_meshes.h"
-#include "qjulia/error.h"
+#include "qjulia/base/error.h"
 
 using qjulia::TriMesh;
 

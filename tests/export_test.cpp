@@ -1,5 +1,5 @@
 // Round trips through every writer and reader, and the failure paths of write_mesh/read_mesh.
-#include "qjulia/export.h"
+#include "qjulia/io/mesh_io.h"
 
 #include <gtest/gtest.h>
 
@@ -12,7 +12,7 @@
 #include <random>
 #include <set>
 
-#include "qjulia/error.h"
+#include "qjulia/base/error.h"
 #include "test_meshes.h"
 
 namespace fs = std::filesystem;

@@ -1,13 +1,13 @@
-#include "qjulia/extract.h"
+#include "qjulia/surface/extract.h"
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <complex>
 
-#include "qjulia/classify.h"
-#include "qjulia/pipeline.h"
-#include "qjulia/sample.h"
+#include "qjulia/field/classify.h"
+#include "qjulia/pipeline/pipeline.h"
+#include "qjulia/grid/sample.h"
 
 namespace qjulia {
 namespace {

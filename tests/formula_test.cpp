@@ -1,6 +1,6 @@
 // Tests of the formula compiler: every expected value is computed by hand with the quaternion.h
 // operators, never copied from output.
-#include "qjulia/formula.h"
+#include "qjulia/field/formula.h"
 
 #include <gtest/gtest.h>
 
@@ -11,7 +11,7 @@
 #include <thread>
 #include <vector>
 
-#include "qjulia/error.h"
+#include "qjulia/base/error.h"
 
 namespace qjulia {
 namespace {

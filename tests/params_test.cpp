@@ -1,4 +1,4 @@
-#include "qjulia/params.h"
+#include "qjulia/field/params.h"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <limits>
 #include <string>
 
-#include "qjulia/error.h"
+#include "qjulia/base/error.h"
 
 namespace qjulia {
 namespace {

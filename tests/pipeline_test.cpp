@@ -1,4 +1,4 @@
-#include "qjulia/pipeline.h"
+#include "qjulia/pipeline/pipeline.h"
 
 #include <gtest/gtest.h>
 

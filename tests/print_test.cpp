@@ -1,5 +1,5 @@
 // Tests of scale_to_longest_side() and thicken().
-#include "qjulia/print.h"
+#include "qjulia/mesh/print.h"
 
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <cmath>
 
 #include "test_meshes.h"
-#include "qjulia/error.h"
+#include "qjulia/base/error.h"
 
 using qjulia::TriMesh;
 

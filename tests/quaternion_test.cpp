@@ -1,4 +1,4 @@
-#include "qjulia/quaternion.h"
+#include "qjulia/field/quaternion.h"
 
 #include <gtest/gtest.h>
 

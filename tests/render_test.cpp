@@ -1,5 +1,5 @@
 // Tests of the preview renderer: framing, the cosine law, Phong highlights, determinism, PNG.
-#include "qjulia/render.h"
+#include "qjulia/render/render.h"
 
 #include <gtest/gtest.h>
 #include <png.h>
@@ -16,8 +16,8 @@
 #include <string>
 #include <utility>
 
-#include "qjulia/error.h"
-#include "qjulia/export.h"
+#include "qjulia/base/error.h"
+#include "qjulia/io/mesh_io.h"
 #include "render_args.h"
 #include "test_meshes.h"
 

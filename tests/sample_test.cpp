@@ -1,4 +1,4 @@
-#include "qjulia/sample.h"
+#include "qjulia/grid/sample.h"
 
 #include <gtest/gtest.h>
 #include <openvdb/io/File.h>
@@ -8,7 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "qjulia/classify.h"
+#include "qjulia/field/classify.h"
 
 namespace qjulia {
 namespace {

@@ -11,7 +11,7 @@
 #include <utility>
 #include <vector>
 
-#include "qjulia/mesh.h"
+#include "qjulia/base/mesh.h"
 
 namespace fixtures {
 

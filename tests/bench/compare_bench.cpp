@@ -16,9 +16,9 @@
 #include <string>
 #include <thread>
 
-#include "qjulia/compare.h"
-#include "qjulia/params.h"
-#include "qjulia/pipeline.h"
+#include "qjulia/mesh/compare.h"
+#include "qjulia/field/params.h"
+#include "qjulia/pipeline/pipeline.h"
 
 namespace {
 

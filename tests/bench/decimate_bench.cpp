@@ -13,11 +13,11 @@
 #include <string>
 
 #include "../test_meshes.h"
-#include "qjulia/clean.h"
-#include "qjulia/decimate.h"
-#include "qjulia/params.h"
-#include "qjulia/pipeline.h"
-#include "qjulia/print.h"
+#include "qjulia/mesh/clean.h"
+#include "qjulia/mesh/decimate.h"
+#include "qjulia/field/params.h"
+#include "qjulia/pipeline/pipeline.h"
+#include "qjulia/mesh/print.h"
 
 namespace {
 double seconds_since(std::chrono::steady_clock::time_point t0) {

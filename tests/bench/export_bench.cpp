@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <string>
 
-#include "qjulia/export.h"
+#include "qjulia/io/mesh_io.h"
 
 namespace {
 

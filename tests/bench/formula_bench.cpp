@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "qjulia/formula.h"
+#include "qjulia/field/formula.h"
 
 namespace {
 

@@ -10,7 +10,7 @@
 #include <cstdlib>
 #include <string>
 
-#include "qjulia/render.h"
+#include "qjulia/render/render.h"
 
 namespace {
 

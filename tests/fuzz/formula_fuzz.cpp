@@ -8,8 +8,8 @@
 #include <cstring>
 #include <string>
 
-#include "qjulia/error.h"
-#include "qjulia/formula.h"
+#include "qjulia/base/error.h"
+#include "qjulia/field/formula.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using qjulia::Quat;

@@ -5,7 +5,7 @@
 #include <cmath>
 #include <cstdlib>
 
-#include "qjulia/error.h"
+#include "qjulia/base/error.h"
 
 namespace qjulia::cli {
 

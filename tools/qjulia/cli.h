@@ -6,7 +6,7 @@
 #include <utility>
 #include <vector>
 
-#include "qjulia/params.h"
+#include "qjulia/field/params.h"
 
 namespace qjulia::cli {
 

@@ -8,8 +8,8 @@
 
 #include "cli.h"
 #include "commands.h"
-#include "qjulia/error.h"
-#include "qjulia/pipeline.h"
+#include "qjulia/base/error.h"
+#include "qjulia/pipeline/pipeline.h"
 
 namespace qjulia::cli {
 namespace {

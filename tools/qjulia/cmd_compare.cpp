@@ -13,10 +13,10 @@
 #include "commands.h"
 #include "files.h"
 #include "progress_bar.h"
-#include "qjulia/compare.h"
-#include "qjulia/error.h"
-#include "qjulia/export.h"
-#include "qjulia/pipeline.h"
+#include "qjulia/mesh/compare.h"
+#include "qjulia/base/error.h"
+#include "qjulia/io/mesh_io.h"
+#include "qjulia/pipeline/pipeline.h"
 
 namespace qjulia::cli {
 

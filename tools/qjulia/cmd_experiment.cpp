@@ -17,10 +17,10 @@
 #include "cli.h"
 #include "commands.h"
 #include "files.h"
-#include "qjulia/compare.h"
-#include "qjulia/error.h"
-#include "qjulia/pipeline.h"
-#include "qjulia/render.h"
+#include "qjulia/mesh/compare.h"
+#include "qjulia/base/error.h"
+#include "qjulia/pipeline/pipeline.h"
+#include "qjulia/render/render.h"
 
 namespace qjulia::cli {
 

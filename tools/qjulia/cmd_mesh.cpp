@@ -8,10 +8,10 @@
 #include "commands.h"
 #include "files.h"
 #include "progress_bar.h"
-#include "qjulia/error.h"
-#include "qjulia/export.h"
-#include "qjulia/pipeline.h"
-#include "qjulia/render.h"
+#include "qjulia/base/error.h"
+#include "qjulia/io/mesh_io.h"
+#include "qjulia/pipeline/pipeline.h"
+#include "qjulia/render/render.h"
 #include "render_args.h"
 
 namespace qjulia::cli {

@@ -3,7 +3,7 @@
 
 #include "cli.h"
 #include "commands.h"
-#include "qjulia/error.h"
+#include "qjulia/base/error.h"
 
 namespace qjulia::cli {
 

@@ -15,9 +15,9 @@
 
 #include "cli.h"
 #include "commands.h"
-#include "qjulia/error.h"
-#include "qjulia/export.h"
-#include "qjulia/render.h"
+#include "qjulia/base/error.h"
+#include "qjulia/io/mesh_io.h"
+#include "qjulia/render/render.h"
 #include "render_args.h"
 
 namespace qjulia::cli {

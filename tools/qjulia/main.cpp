@@ -5,8 +5,8 @@
 #include <vector>
 
 #include "commands.h"
-#include "qjulia/error.h"
-#include "qjulia/pipeline.h"
+#include "qjulia/base/error.h"
+#include "qjulia/pipeline/pipeline.h"
 
 namespace {
 

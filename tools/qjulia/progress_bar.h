@@ -3,7 +3,7 @@
 #include <chrono>
 #include <string>
 
-#include "qjulia/pipeline.h"
+#include "qjulia/pipeline/pipeline.h"
 
 namespace qjulia::cli {
 

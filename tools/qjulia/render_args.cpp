@@ -6,7 +6,7 @@
 #include <cmath>
 #include <tuple>
 
-#include "qjulia/error.h"
+#include "qjulia/base/error.h"
 
 namespace qjulia::cli {
 

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "cli.h"
-#include "qjulia/render.h"
+#include "qjulia/render/render.h"
 
 namespace qjulia::cli {
 

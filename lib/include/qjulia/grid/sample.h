@@ -1,0 +1,69 @@
+#pragma once
+/// @file sample.h
+/// Sampling the continuous field into a sparse grid (an openvdb::FloatGrid inside).
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "qjulia/field/params.h"
+#include "qjulia/base/progress.h"
+
+namespace qjulia {
+
+/// Where the grid points of a parameter set are: point (i, j, k) is at origin + (i, j, k) *
+/// voxel for 0 <= i < points[0] etc., at the centres of voxels of the box, so the walls of the
+/// box lie half a voxel beyond the outermost points.
+struct GridGeometry {
+  std::array<double, 3> origin{0, 0, 0};  ///< bounds.min + voxel / 2
+  double voxel = 1.0;                     ///< longest side of the box / resolution
+  std::array<int, 3> points{0, 0, 0};
+};
+
+/// The grid of `params` (not validated here).
+GridGeometry grid_geometry(const Params& params);
+
+/// Options of sample().
+struct SampleOptions {
+  /// Evaluate every grid point instead of refining coarse blocks (the validation path).
+  bool dense = false;
+  /// Side of the coarse blocks, in voxels (a power of two, 2..64).
+  int coarse_block = 16;
+  /// Progress in [0, 1]; return false to cancel.
+  ProgressFn progress;
+};
+
+/// The sampled field on the points of grid_geometry(params). Evaluated points hold F; uniform
+/// regions are inactive tiles whose value has the right sign.
+class SampledGrid {
+ public:
+  SampledGrid();
+  ~SampledGrid();
+  SampledGrid(SampledGrid&&) noexcept;
+  SampledGrid& operator=(SampledGrid&&) noexcept;
+
+  double voxel_size() const;                ///< model units
+  std::array<double, 3> origin() const;     ///< position of point (0, 0, 0)
+  std::array<int, 3> points() const;        ///< grid points per axis
+  std::uint64_t evaluations() const;        ///< classifier calls made by sample()
+  std::uint64_t dense_evaluations() const;  ///< points a dense grid has
+  std::uint64_t crossing_cells() const;     ///< cells whose corners differ in sign
+  std::uint64_t active_voxels() const;      ///< evaluated points stored in the grid
+
+  /// Writes the grid as a .vdb file (a FloatGrid named "F", with the parameters and the
+  /// field's meaning as metadata). @throws std::runtime_error when the file cannot be written.
+  void write_vdb(const std::string& path, const std::string& params_json) const;
+
+  struct Impl;  ///< internal (lib/src/detail/grid_impl.h)
+  Impl& impl() { return *impl_; }
+  const Impl& impl() const { return *impl_; }
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Samples the solid of `params` (box and clip planes included).
+/// @throws InvalidInput when params do not validate; Cancelled when progress returns false.
+SampledGrid sample(const Params& params, const SampleOptions& opts = {});
+
+}  // namespace qjulia

@@ -1,0 +1,38 @@
+#pragma once
+/// @file decimate.h
+/// Decimation to a face budget and/or an error bound, keeping the mesh closed and manifold.
+#include <cstddef>
+#include <optional>
+
+#include "qjulia/base/mesh.h"
+#include "qjulia/base/progress.h"
+
+namespace qjulia {
+
+/// Options of decimate(). At least one of faces / max_error is set.
+struct DecimateOptions {
+  std::optional<long long> faces;   ///< at most this many faces
+  std::optional<double> max_error;  ///< Hausdorff bound to the input, model units
+  /// Check the result for self-intersections (CGAL, ~1.5 s per 150k output faces) and redo the
+  /// decimation keeping the faces around intersecting ones (up to three rounds).
+  bool avoid_self_intersections = false;
+  ProgressFn progress;
+};
+
+/// What decimate() did.
+struct DecimateReport {
+  std::size_t faces_before = 0;
+  std::size_t faces_after = 0;
+  double hausdorff = 0.0;      ///< two-sided distance between input and output, model units
+  bool target_reached = true;  ///< false when the budget could not be met within the bound
+  bool closed = true;    ///< the result has no boundary or non-manifold edge (as a closed input)
+  bool manifold = true;  ///< the result has no non-manifold edge or vertex and is oriented
+  /// Intersecting face pairs left (set when avoid_self_intersections was asked).
+  std::optional<std::size_t> self_intersections;
+};
+
+/// Decimates `mesh`. @throws InvalidInput when neither bound is set or a bound is not positive.
+TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts,
+                 DecimateReport* report = nullptr);
+
+}  // namespace qjulia

@@ -1,0 +1,73 @@
+#pragma once
+/// @file pipeline.h
+/// The whole `qjulia mesh` job as one call: sample -> extract -> clean -> decimate -> print.
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "qjulia/mesh/clean.h"
+#include "qjulia/mesh/decimate.h"
+#include "qjulia/base/mesh.h"
+#include "qjulia/field/params.h"
+#include "qjulia/grid/sample.h"
+
+namespace qjulia {
+
+/// Progress of a stage: its name ("sample", "extract", ...) and the fraction done. Return false
+/// to cancel.
+using StageProgressFn = std::function<bool(const std::string& stage, double fraction)>;
+
+/// Options of run_pipeline().
+struct PipelineOptions {
+  bool dense = false;      ///< evaluate every grid point (validation path)
+  bool keep_grid = false;  ///< keep the sampled grid in the result (for --vdb)
+  StageProgressFn progress;
+};
+
+/// Figures of one run, the content of --stats.
+struct RunStats {
+  /// Classifier calls that filled the grid (the sampling stage); compare with
+  /// dense_evaluations, the calls a dense grid needs.
+  std::uint64_t evaluations = 0;
+  /// Classifier calls that moved vertices onto the boundary and coloured them (the same for a
+  /// sparse and a dense grid).
+  std::uint64_t refine_evaluations = 0;
+  std::uint64_t dense_evaluations = 0;  ///< grid points of a dense grid
+  std::uint64_t crossing_cells = 0;
+  double voxel_size = 0;
+  std::array<int, 3> grid_points{0, 0, 0};
+  MeshMeasure measure;                                  ///< of the final mesh
+  std::vector<std::pair<std::string, double>> timings;  ///< seconds per stage, in order
+  std::size_t peak_rss_bytes = 0;
+  std::optional<CleanReport> clean;
+  std::optional<DecimateReport> decimate;
+  std::optional<std::size_t> self_intersections;
+  double scale = 1.0;  ///< factor applied by print.size_mm
+  std::string unit;    ///< "mm" when scaled for printing
+};
+
+/// The result of run_pipeline().
+struct PipelineResult {
+  TriMesh mesh;
+  RunStats stats;
+  std::optional<SampledGrid> grid;  ///< when keep_grid
+};
+
+/// Runs every stage of `params`.
+/// @throws InvalidInput for invalid params; Cancelled when progress returns false.
+PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts = {});
+
+/// The --stats JSON of a run (DESIGN.md's keys and more).
+std::string stats_to_json(const RunStats& stats, const Params& params);
+
+/// Peak resident set size of this process so far, in bytes (0 when unknown).
+std::size_t peak_rss_bytes();
+
+/// The library version, "MAJOR.MINOR.PATCH".
+const char* version();
+
+}  // namespace qjulia

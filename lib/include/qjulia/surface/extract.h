@@ -1,0 +1,39 @@
+#pragma once
+/// @file extract.h
+/// Surface extraction: marching cubes over the sampled cells, vertices refined onto the exact
+/// classification boundary, outward orientation.
+#include <cstdint>
+
+#include "qjulia/base/mesh.h"
+#include "qjulia/field/params.h"
+#include "qjulia/base/progress.h"
+#include "qjulia/grid/sample.h"
+
+namespace qjulia {
+
+/// Options of extract().
+struct ExtractOptions {
+  /// Stop refining a vertex when its bracket on the edge is shorter than this, in voxels.
+  double tolerance = 0.02;
+  /// At most this many classifier calls per vertex.
+  int max_refine_steps = 24;
+  /// Per-vertex colours (left empty for kNone).
+  ColorMode color = ColorMode::kNone;
+  /// Progress in [0, 1]; return false to cancel.
+  ProgressFn progress;
+};
+
+/// What extract() did besides the mesh.
+struct ExtractStats {
+  std::uint64_t evaluations = 0;  ///< classifier calls for refinement and colours
+};
+
+/// Extracts the closed, oriented, manifold surface of the sampled solid.
+/// @param[in] grid    from sample(params)
+/// @param[in] params  the same parameters
+/// @param[out] stats  optional counters
+/// @throws Cancelled when progress returns false.
+TriMesh extract(const SampledGrid& grid, const Params& params, const ExtractOptions& opts = {},
+                ExtractStats* stats = nullptr);
+
+}  // namespace qjulia

@@ -1,0 +1,287 @@
+#include "base/mesh_check.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include <algorithm>
+#include <atomic>
+#include <numeric>
+
+namespace qjulia::detail {
+
+namespace {
+
+uint32_t find_root(std::vector<uint32_t>& parent, uint32_t x) {
+  while (parent[x] != x) {
+    parent[x] = parent[parent[x]];
+    x = parent[x];
+  }
+  return x;
+}
+
+/// Number of connected components of a vertex link given as pairs of link vertices.
+int link_components(const std::vector<std::pair<uint32_t, uint32_t>>& link) {
+  // Local union-find over the distinct link vertices (a vertex has ~6 faces).
+  std::vector<uint32_t> ids;
+  ids.reserve(link.size() * 2);
+  for (const auto& e : link) {
+    ids.push_back(e.first);
+    ids.push_back(e.second);
+  }
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  std::vector<uint32_t> parent(ids.size());
+  std::iota(parent.begin(), parent.end(), 0u);
+  auto index = [&](uint32_t v) {
+    return static_cast<uint32_t>(std::lower_bound(ids.begin(), ids.end(), v) - ids.begin());
+  };
+  int components = static_cast<int>(ids.size());
+  for (const auto& e : link) {
+    uint32_t a = find_root(parent, index(e.first));
+    uint32_t b = find_root(parent, index(e.second));
+    if (a != b) {
+      parent[a] = b;
+      --components;
+    }
+  }
+  return components;
+}
+
+/// Fast path of a closed manifold vertex: following next -> prev visits every link edge once.
+bool single_cycle(const std::vector<std::pair<uint32_t, uint32_t>>& link) {
+  const std::size_t k = link.size();
+  if (k > 64) return false;
+  uint32_t cur = link[0].second;
+  for (std::size_t steps = 1; steps < k; ++steps) {
+    std::size_t i = 0;
+    while (i < k && link[i].first != cur) ++i;
+    if (i == k || i == 0) return false;
+    cur = link[i].second;
+  }
+  return cur == link[0].first;
+}
+
+}  // namespace
+
+VertexFaces::VertexFaces(const TriMesh& mesh) {
+  const std::size_t nv = mesh.positions.size();
+  offsets.assign(nv + 1, 0);
+  for (const auto& t : mesh.triangles)
+    for (uint32_t v : t) ++offsets[v + 1];
+  for (std::size_t i = 0; i < nv; ++i) offsets[i + 1] += offsets[i];
+  faces.resize(offsets[nv]);
+  std::vector<uint32_t> fill(offsets.begin(), offsets.end() - 1);
+  for (uint32_t f = 0; f < mesh.triangles.size(); ++f)
+    for (uint32_t v : mesh.triangles[f]) faces[fill[v]++] = f;
+}
+
+TopologyCheck check_topology(const TriMesh& mesh, bool allow_boundary) {
+  TopologyCheck out;
+  const auto& tris = mesh.triangles;
+  // Half-edges packed as (min << 33) | (max << 1) | (a < b), sorted so that the two halves of
+  // one edge are adjacent.
+  std::vector<uint64_t> keys;
+  keys.reserve(tris.size() * 3);
+  for (const auto& t : tris) {
+    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
+      ++out.degenerate_faces;
+      continue;
+    }
+    for (int k = 0; k < 3; ++k) {
+      uint64_t a = t[k], b = t[(k + 1) % 3];
+      uint64_t lo = std::min(a, b), hi = std::max(a, b);
+      keys.push_back((lo << 33) | (hi << 1) | (a < b ? 1u : 0u));
+    }
+  }
+  tbb::parallel_sort(keys.begin(), keys.end());
+  std::vector<uint32_t> bad;
+  for (std::size_t i = 0; i < keys.size();) {
+    std::size_t j = i + 1;
+    while (j < keys.size() && (keys[j] >> 1) == (keys[i] >> 1)) ++j;
+    const std::size_t n = j - i;
+    ++out.edges;
+    bool is_bad = false;
+    if (n == 1) {
+      ++out.boundary_edges;
+      is_bad = !allow_boundary;
+      out.boundary_vertices.push_back(static_cast<uint32_t>(keys[i] >> 33));
+      out.boundary_vertices.push_back(static_cast<uint32_t>((keys[i] >> 1) & 0xffffffffu));
+    } else if (n > 2) {
+      ++out.nonmanifold_edges;
+      is_bad = true;
+    } else if ((keys[i] & 1) == (keys[i + 1] & 1)) {
+      ++out.misoriented_edges;
+      is_bad = true;
+    }
+    if (is_bad) {
+      bad.push_back(static_cast<uint32_t>(keys[i] >> 33));
+      bad.push_back(static_cast<uint32_t>((keys[i] >> 1) & 0xffffffffu));
+    }
+    i = j;
+  }
+  keys.clear();
+  keys.shrink_to_fit();
+
+  // Vertex fans: the link of a vertex must be connected.
+  VertexFaces vf(mesh);
+  const std::size_t nv = mesh.positions.size();
+  std::vector<uint8_t> pinched(nv, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv), [&](const auto& r) {
+    std::vector<std::pair<uint32_t, uint32_t>> link;
+    for (std::size_t v = r.begin(); v != r.end(); ++v) {
+      link.clear();
+      for (uint32_t k = vf.offsets[v]; k < vf.offsets[v + 1]; ++k) {
+        const auto& t = tris[vf.faces[k]];
+        if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) continue;
+        int c = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
+        link.emplace_back(t[(c + 1) % 3], t[(c + 2) % 3]);
+      }
+      if (link.size() > 1 && !single_cycle(link) && link_components(link) > 1) pinched[v] = 1;
+    }
+  });
+  for (std::size_t v = 0; v < nv; ++v)
+    if (pinched[v]) {
+      ++out.nonmanifold_vertices;
+      bad.push_back(static_cast<uint32_t>(v));
+    }
+  std::sort(out.boundary_vertices.begin(), out.boundary_vertices.end());
+  out.boundary_vertices.erase(
+      std::unique(out.boundary_vertices.begin(), out.boundary_vertices.end()),
+      out.boundary_vertices.end());
+  std::sort(bad.begin(), bad.end());
+  bad.erase(std::unique(bad.begin(), bad.end()), bad.end());
+  out.bad_vertices = std::move(bad);
+  return out;
+}
+
+std::size_t face_components(const TriMesh& mesh, std::vector<uint32_t>& face_component) {
+  std::vector<uint32_t> parent(mesh.positions.size());
+  std::iota(parent.begin(), parent.end(), 0u);
+  for (const auto& t : mesh.triangles) {
+    uint32_t a = find_root(parent, t[0]);
+    for (int k = 1; k < 3; ++k) {
+      uint32_t b = find_root(parent, t[k]);
+      if (a != b) {
+        parent[b] = a;
+      }
+    }
+  }
+  constexpr uint32_t kNone = 0xffffffffu;
+  std::vector<uint32_t> label(parent.size(), kNone);
+  uint32_t count = 0;
+  face_component.resize(mesh.triangles.size());
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+    uint32_t r = find_root(parent, mesh.triangles[f][0]);
+    if (label[r] == kNone) label[r] = count++;
+    face_component[f] = label[r];
+  }
+  return count;
+}
+
+double signed_volume(const TriMesh& mesh) {
+  double v = 0;
+  for (const auto& t : mesh.triangles) {
+    const auto& a = mesh.positions[t[0]];
+    const auto& b = mesh.positions[t[1]];
+    const auto& c = mesh.positions[t[2]];
+    v += (double(a[0]) * (double(b[1]) * c[2] - double(b[2]) * c[1]) +
+          double(a[1]) * (double(b[2]) * c[0] - double(b[0]) * c[2]) +
+          double(a[2]) * (double(b[0]) * c[1] - double(b[1]) * c[0]));
+  }
+  return v / 6.0;
+}
+
+/// Drops faces with a repeated index, then pairs of faces on the same three vertices with
+/// opposite orientation (the "fins" a collapse can leave); both keep a closed mesh closed.
+std::size_t drop_repeated_and_fins(TriMesh& mesh) {
+  auto& tris = mesh.triangles;
+  const std::size_t before = tris.size();
+  tris.erase(
+      std::remove_if(tris.begin(), tris.end(),
+                     [](const auto& t) { return t[0] == t[1] || t[1] == t[2] || t[0] == t[2]; }),
+      tris.end());
+  // Sort faces by a hash of their sorted vertex triple to find coincident faces; equal hashes
+  // are compared exactly below.
+  auto sorted_key = [&](uint32_t f) {
+    auto t = tris[f];
+    std::sort(t.begin(), t.end());
+    return t;
+  };
+  std::vector<std::pair<uint64_t, uint32_t>> hashed(tris.size());
+  tbb::parallel_for(std::size_t(0), tris.size(), [&](std::size_t f) {
+    const auto t = sorted_key(static_cast<uint32_t>(f));
+    uint64_t h = (uint64_t(t[0]) * 0x9E3779B97F4A7C15ULL) ^
+                 (uint64_t(t[1]) * 0xC2B2AE3D27D4EB4FULL) ^
+                 (uint64_t(t[2]) * 0x165667B19E3779F9ULL);
+    hashed[f] = {h, static_cast<uint32_t>(f)};
+  });
+  tbb::parallel_sort(hashed.begin(), hashed.end());
+  std::vector<uint32_t> order;  // faces whose hash is shared, grouped by exact triple
+  for (std::size_t i = 0; i < hashed.size();) {
+    std::size_t j = i + 1;
+    while (j < hashed.size() && hashed[j].first == hashed[i].first) ++j;
+    if (j - i > 1) {
+      std::vector<uint32_t> group;
+      for (std::size_t k = i; k < j; ++k) group.push_back(hashed[k].second);
+      std::sort(group.begin(), group.end(), [&](uint32_t x, uint32_t y) {
+        auto kx = sorted_key(x), ky = sorted_key(y);
+        return kx != ky ? kx < ky : x < y;
+      });
+      order.insert(order.end(), group.begin(), group.end());
+    }
+    i = j;
+  }
+  auto parity = [&](uint32_t f) {  // orientation relative to the sorted order
+    const auto& t = tris[f];
+    int inv = (t[0] > t[1]) + (t[0] > t[2]) + (t[1] > t[2]);
+    return inv & 1;
+  };
+  std::vector<uint8_t> drop(tris.size(), 0);
+  for (std::size_t i = 0; i < order.size();) {
+    std::size_t j = i + 1;
+    const auto ki = sorted_key(order[i]);
+    while (j < order.size() && sorted_key(order[j]) == ki) ++j;
+    if (j - i > 1) {
+      // Cancel opposite orientations pairwise; same-orientation copies are duplicates.
+      std::vector<uint32_t> pos, neg;
+      for (std::size_t k = i; k < j; ++k) (parity(order[k]) ? neg : pos).push_back(order[k]);
+      std::size_t pairs = std::min(pos.size(), neg.size());
+      for (std::size_t k = 0; k < pairs; ++k) drop[pos[k]] = drop[neg[k]] = 1;
+      for (std::size_t k = pairs + 1; k < pos.size(); ++k) drop[pos[k]] = 1;
+      for (std::size_t k = pairs + 1; k < neg.size(); ++k) drop[neg[k]] = 1;
+    }
+    i = j;
+  }
+  std::size_t w = 0;
+  for (std::size_t f = 0; f < tris.size(); ++f)
+    if (!drop[f]) tris[w++] = tris[f];
+  tris.resize(w);
+  return before - w;
+}
+
+std::size_t compact_vertices(TriMesh& mesh, std::vector<uint32_t>* old_to_new) {
+  constexpr uint32_t kNone = 0xffffffffu;
+  const std::size_t nv = mesh.positions.size();
+  std::vector<uint32_t> remap(nv, kNone);
+  uint32_t next = 0;
+  for (auto& t : mesh.triangles)
+    for (auto& v : t) {
+      if (remap[v] == kNone) remap[v] = next++;
+      v = remap[v];
+    }
+  auto apply = [&](std::vector<std::array<float, 3>>& a) {
+    if (a.size() != nv) return;
+    std::vector<std::array<float, 3>> b(next);
+    for (std::size_t i = 0; i < nv; ++i)
+      if (remap[i] != kNone) b[remap[i]] = a[i];
+    a.swap(b);
+  };
+  apply(mesh.positions);
+  apply(mesh.normals);
+  apply(mesh.colors);
+  if (old_to_new) *old_to_new = std::move(remap);
+  return nv - next;
+}
+
+}  // namespace qjulia::detail

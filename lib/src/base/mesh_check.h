@@ -1,0 +1,58 @@
+#pragma once
+/// @file mesh_check.h
+/// Small, fast topology checks used by clean, decimate and print (independent of measure()).
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "qjulia/base/mesh.h"
+
+namespace qjulia::detail {
+
+/// Edge and vertex topology of a triangle mesh.
+struct TopologyCheck {
+  std::size_t edges = 0;
+  std::size_t boundary_edges = 0;           ///< edges with one face
+  std::size_t nonmanifold_edges = 0;        ///< edges with more than two faces
+  std::size_t misoriented_edges = 0;        ///< two faces traversing the edge the same way
+  std::size_t nonmanifold_vertices = 0;     ///< vertices whose faces form more than one fan
+  std::size_t degenerate_faces = 0;         ///< repeated vertex index
+  std::vector<uint32_t> boundary_vertices;  ///< vertices of boundary edges (sorted, unique)
+  std::vector<uint32_t> bad_vertices;       ///< vertices of non-manifold/boundary/misoriented edges
+                                            ///< and non-manifold vertices (sorted, unique)
+  bool closed() const { return boundary_edges == 0 && nonmanifold_edges == 0; }
+  bool manifold() const { return nonmanifold_edges == 0 && nonmanifold_vertices == 0; }
+  bool oriented() const { return misoriented_edges == 0; }
+};
+
+/// Checks edges and vertex fans. O(F log F), multi-threaded sort.
+/// With allow_boundary, boundary edges are counted but their vertices are not reported bad.
+TopologyCheck check_topology(const TriMesh& mesh, bool allow_boundary = false);
+
+/// Vertex-connected components: per face its component id; returns the component count.
+std::size_t face_components(const TriMesh& mesh, std::vector<uint32_t>& face_component);
+
+/// Signed volume (divergence theorem) of the faces, in double precision.
+double signed_volume(const TriMesh& mesh);
+
+/// Compressed vertex -> incident faces table.
+struct VertexFaces {
+  std::vector<uint32_t> offsets;  ///< #V + 1
+  std::vector<uint32_t> faces;
+  VertexFaces(const TriMesh& mesh);
+};
+
+/// Drops faces with a repeated index, then pairs of faces on the same three vertices with
+/// opposite orientation (the "fins" a collapse can leave; removing both keeps a closed mesh
+/// closed), then extra same-orientation copies. Returns the number of faces dropped.
+std::size_t drop_repeated_and_fins(TriMesh& mesh);
+
+/// Removes unreferenced vertices (keeping normals/colors aligned). Returns how many were removed.
+/// `old_to_new` (optional) receives the new index of every old vertex (0xffffffff if removed).
+std::size_t compact_vertices(TriMesh& mesh, std::vector<uint32_t>* old_to_new = nullptr);
+
+/// Pairs of faces that intersect other than in their shared vertices/edge (CGAL; defined in
+/// clean_cgal.cpp). Faces a halfedge mesh cannot hold are skipped.
+std::vector<std::pair<uint32_t, uint32_t>> self_intersecting_face_pairs(const TriMesh& mesh);
+
+}  // namespace qjulia::detail

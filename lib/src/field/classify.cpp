@@ -1,0 +1,169 @@
+#include "qjulia/field/classify.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "qjulia/base/error.h"
+#include "qjulia/grid/sample.h"
+
+namespace qjulia {
+namespace {
+
+constexpr int kMaxConstants = 16;
+// F is clamped here so that a pole or an orbit stuck at infinity gives a finite value.
+constexpr float kFieldLimit = 1e6f;
+
+// a / (a + b) for a > 0, b >= 0, either possibly infinite: the fractional part of F.
+double frac(double a, double b) {
+  if (std::isinf(a)) return std::isinf(b) ? 0.5 : 1.0;
+  if (std::isinf(b)) return 0.0;
+  return a / (a + b);
+}
+
+float clamp_field(double f) {
+  if (std::isnan(f)) return kFieldLimit;  // unreachable by construction; never output NaN
+  return static_cast<float>(
+      std::clamp(f, -static_cast<double>(kFieldLimit), static_cast<double>(kFieldLimit)));
+}
+
+}  // namespace
+
+Classifier::Classifier(const Params& params) : params_(params) {
+  validate(params_);
+  std::vector<std::string> names;
+  for (const auto& [name, value] : params_.constants) {
+    names.push_back(name);
+    constants_.push_back(value);
+  }
+  if (params_.mode == Mode::kMandelbrot) {
+    auto it = std::find(names.begin(), names.end(), "c");
+    if (it == names.end()) {
+      names.push_back("c");
+      constants_.push_back(Quat{});
+      it = names.end() - 1;
+    }
+    c_index_ = static_cast<int>(it - names.begin());
+  }
+  if (constants_.size() > kMaxConstants)
+    throw InvalidInput("parameters: at most " + std::to_string(kMaxConstants) + " constants");
+  formula_ = Formula::compile(params_.formula, names);
+  slice_ = params_.slice.resolved();
+}
+
+Quat Classifier::to_quaternion(double x, double y, double z) const {
+  return slice_.origin + x * slice_.directions[0] + y * slice_.directions[1] +
+         z * slice_.directions[2];
+}
+
+Orbit Classifier::orbit(double x, double y, double z) const {
+  const Quat p = to_quaternion(x, y, z);
+  // Julia mode evaluates with the constants as they are; Mandelbrot mode needs a copy with c
+  // replaced by the sampled point.
+  const Quat* consts = constants_.data();
+  Quat local[kMaxConstants];
+  Quat h = p;
+  if (c_index_ >= 0) {
+    std::copy(constants_.begin(), constants_.end(), local);
+    local[c_index_] = p;
+    consts = local;
+    h = params_.start;
+  }
+  const int n_iter = params_.iterations;
+  const double r2 = params_.bailout * params_.bailout;
+  const double log_r = std::log(params_.bailout);
+  Orbit out;
+  if (params_.method == Method::kEscape) {
+    // s_k = log(|h_k| / R); the orbit leaves at the first k with s_k > 0.
+    double prev2 = norm2(h);
+    if (prev2 > r2) {
+      const double s = 0.5 * std::log(prev2) - log_r;
+      out.field = clamp_field(n_iter + frac(s, 1.0));
+      out.exit_step = 0;
+      out.last = h;
+      return out;
+    }
+    for (int k = 1; k <= n_iter; ++k) {
+      const Quat next = formula_.eval(h, consts);
+      const double n2 = norm2(next);
+      if (!std::isfinite(n2) || n2 > r2) {
+        const double s = std::isfinite(n2) ? 0.5 * std::log(n2) - log_r
+                                           : std::numeric_limits<double>::infinity();
+        // s_(k-1) <= 0; -inf when h_(k-1) = 0 exactly, where F takes the step-0 form so that
+        // it stays above N - k.
+        const double s_prev = prev2 > 0 ? 0.5 * std::log(prev2) - log_r : -1.0;
+        out.field = clamp_field((n_iter - k) + frac(s, -s_prev));
+        out.exit_step = k;
+        out.last = is_finite(next) ? next : h;
+        return out;
+      }
+      h = next;
+      prev2 = n2;
+    }
+    out.field = clamp_field(0.5 * std::log(prev2) - log_r);  // s_N <= 0
+    out.last = h;
+    return out;
+  }
+  // Cut-off: t_k = log(|h_k - h_(k-1)| / R); converged at the first k with t_k < 0.
+  double t_prev = std::numeric_limits<double>::infinity();
+  for (int k = 1; k <= n_iter; ++k) {
+    const Quat next = formula_.eval(h, consts);
+    const double d2 = norm2(next - h);
+    if (!std::isfinite(d2)) {
+      // A pole or an overflow: a large step, and the orbit stays at infinity, so it never
+      // converges. The point is in the solid, well inside.
+      out.field = -kFieldLimit;
+      out.last = is_finite(next) ? next : h;
+      return out;
+    }
+    const double t = d2 > 0 ? 0.5 * std::log(d2) - log_r : -std::numeric_limits<double>::infinity();
+    if (t < 0) {
+      out.field =
+          clamp_field(k == 1 ? (n_iter - 1) + frac(-t, 1.0) : (n_iter - k) + frac(-t, t_prev));
+      out.exit_step = k;
+      out.last = next;
+      return out;
+    }
+    t_prev = t;
+    h = next;
+  }
+  out.field = clamp_field(-t_prev);  // -t_N <= 0
+  out.last = h;
+  return out;
+}
+
+Solid::Solid(const Params& params) : classifier_(params) {
+  min_ = params.bounds.min;
+  max_ = params.bounds.max;
+  for (ClipPlane c : params.mesh.clip) {
+    const double n = std::sqrt(c.normal[0] * c.normal[0] + c.normal[1] * c.normal[1] +
+                               c.normal[2] * c.normal[2]);
+    for (double& v : c.normal) v /= n;
+    c.d /= n;
+    clip_.push_back(c);
+  }
+  voxel_ = grid_geometry(params).voxel;
+}
+
+double Solid::constraint(double x, double y, double z) const {
+  const double p[3] = {x, y, z};
+  double c = -std::numeric_limits<double>::infinity();
+  for (int a = 0; a < 3; ++a) c = std::max({c, min_[a] - p[a], p[a] - max_[a]});
+  for (const ClipPlane& cp : clip_)
+    c = std::max(c, cp.normal[0] * x + cp.normal[1] * y + cp.normal[2] * z - cp.d);
+  return c;
+}
+
+std::optional<float> Solid::excluded_field(double x, double y, double z) const {
+  const double c = constraint(x, y, z) / voxel_;
+  if (c > 0) return static_cast<float>(std::max(c, 1e-6));
+  return std::nullopt;
+}
+
+float Solid::field(double x, double y, double z) const {
+  const double c = constraint(x, y, z) / voxel_;
+  if (c > 0) return static_cast<float>(std::max(c, 1e-6));
+  return std::max(classifier_.field(x, y, z), static_cast<float>(c));
+}
+
+}  // namespace qjulia

@@ -1,0 +1,307 @@
+// compare: measures of two surfaces and their two-sided Hausdorff distance, estimated from dense
+// surface samples (every vertex plus area-proportional random points) against a BVH of the
+// other surface. Exact point-to-triangle distances; only the sampling of the source surface is
+// approximate, so each directed maximum is a lower bound within the sample spacing.
+#include "qjulia/mesh/compare.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "base/bvh.h"
+#include "qjulia/base/error.h"
+
+namespace qjulia {
+
+namespace {
+
+using Point = std::array<float, 3>;
+
+// splitmix64: a counter-based generator, so sample i is the same whatever thread makes it.
+inline std::uint64_t mix(std::uint64_t x) {
+  x += 0x9e3779b97f4a7c15ULL;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
+  return x ^ (x >> 31);
+}
+inline double unit(std::uint64_t x) { return (mix(x) >> 11) * (1.0 / 9007199254740992.0); }
+
+bool valid_face(const TriMesh& m, const std::array<uint32_t, 3>& t) {
+  const std::size_t n = m.positions.size();
+  return t[0] < n && t[1] < n && t[2] < n;
+}
+
+// The surface samples of `m`: its referenced vertices first (their indices in `vertex_of`),
+// then random points up to `total_samples`, stratified along the cumulative area so every face gets
+// its share (area * density, rounded randomly).
+struct Samples {
+  std::vector<Point> points;
+  std::vector<uint32_t> vertex_of;  // the vertex of points[i] for i < vertex_of.size()
+};
+
+Samples make_samples(const TriMesh& m, std::size_t total_samples, std::uint64_t seed) {
+  Samples s;
+  std::vector<char> used(m.positions.size(), 0);
+  for (const auto& t : m.triangles)
+    if (valid_face(m, t)) used[t[0]] = used[t[1]] = used[t[2]] = 1;
+  for (uint32_t v = 0; v < used.size(); ++v)
+    if (used[v]) s.vertex_of.push_back(v);
+  const std::size_t nv = s.vertex_of.size();
+
+  std::vector<double> cumulative(m.triangles.size() + 1, 0.0);
+  for (std::size_t f = 0; f < m.triangles.size(); ++f) {
+    double area = 0;
+    const auto& t = m.triangles[f];
+    if (valid_face(m, t)) {
+      const auto &a = m.positions[t[0]], &b = m.positions[t[1]], &c = m.positions[t[2]];
+      const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+      const double w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+      const double x = u[1] * w[2] - u[2] * w[1], y = u[2] * w[0] - u[0] * w[2],
+                   z = u[0] * w[1] - u[1] * w[0];
+      area = 0.5 * std::sqrt(x * x + y * y + z * z);
+    }
+    cumulative[f + 1] = cumulative[f] + area;
+  }
+  const double total = cumulative.back();
+  // The vertices count towards the total; a mesh with more vertices than that is sampled by its
+  // vertices alone (they are then denser than the requested samples).
+  std::size_t count = total_samples > nv ? total_samples - nv : 0;
+  if (!(total > 0)) count = 0;
+  s.points.resize(nv + count);
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, nv + count, 4096),
+      [&](const tbb::blocked_range<std::size_t>& r) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          if (i < nv) {
+            s.points[i] = m.positions[s.vertex_of[i]];
+            continue;
+          }
+          const std::size_t j = i - nv;
+          const std::uint64_t key = seed * 0x100000001b3ULL + 3 * j;
+          const double target = (j + unit(key)) / count * total;
+          auto it = std::upper_bound(cumulative.begin() + 1, cumulative.end(), target);
+          std::size_t f =
+              std::min<std::size_t>(it - cumulative.begin() - 1, m.triangles.size() - 1);
+          while (f > 0 && !(cumulative[f + 1] > cumulative[f])) --f;
+          const auto& t = m.triangles[f];
+          // Uniform on the triangle: the square-root warp of two uniforms.
+          const double r1 = std::sqrt(unit(key + 1)), r2 = unit(key + 2);
+          const double wa = 1 - r1, wb = r1 * (1 - r2), wc = r1 * r2;
+          const auto &a = m.positions[t[0]], &b = m.positions[t[1]], &c = m.positions[t[2]];
+          for (int k = 0; k < 3; ++k)
+            s.points[i][k] = static_cast<float>(wa * a[k] + wb * b[k] + wc * c[k]);
+        }
+      });
+  return s;
+}
+
+// Distances of `points` to the surface in `bvh`, in blocks so progress can be reported and
+// cancellation honoured from the calling thread.
+std::vector<float> distances(const std::vector<Point>& points, const detail::TriangleBvh& bvh,
+                             const std::function<void(double)>& step) {
+  std::vector<float> d(points.size());
+  const std::size_t kBlock = 1 << 16;
+  for (std::size_t begin = 0; begin < points.size(); begin += kBlock) {
+    const std::size_t end = std::min(points.size(), begin + kBlock);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(begin, end, 256),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        // Consecutive samples are close: the previous hit is a good start.
+                        uint32_t hint = UINT32_MAX;
+                        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                          const auto hit = bvh.closest(points[i], hint);
+                          d[i] = std::sqrt(hit.distance_sq);
+                          hint = hit.slot;
+                        }
+                      });
+    step(static_cast<double>(end) / points.size());
+  }
+  return d;
+}
+
+DirectedDistance summarize(const std::vector<float>& d) {
+  DirectedDistance out;
+  double sum = 0, sum_sq = 0, mx = 0;
+  for (float x : d) {
+    sum += x;
+    sum_sq += static_cast<double>(x) * x;
+    mx = std::max(mx, static_cast<double>(x));
+  }
+  out.samples = d.size();
+  out.max = mx;
+  if (!d.empty()) {
+    out.mean = sum / d.size();
+    out.rms = std::sqrt(sum_sq / d.size());
+  }
+  return out;
+}
+
+nlohmann::json measure_json(const MeshMeasure& m) {
+  nlohmann::json comps = nlohmann::json::array();
+  for (const auto& c : m.components)
+    comps.push_back({{"faces", c.faces},
+                     {"volume", c.volume},
+                     {"area", c.area},
+                     {"closed", c.closed},
+                     {"euler", c.euler},
+                     {"genus", c.genus}});
+  return {{"vertices", m.vertices},
+          {"faces", m.faces},
+          {"edges", m.edges},
+          {"area", m.area},
+          {"volume", m.volume},
+          {"closed", m.closed},
+          {"manifold", m.manifold},
+          {"oriented", m.oriented},
+          {"boundary_edges", m.boundary_edges},
+          {"nonmanifold_edges", m.nonmanifold_edges},
+          {"nonmanifold_vertices", m.nonmanifold_vertices},
+          {"euler", m.euler},
+          {"component_count", m.components.size()},
+          {"genus_summary", genus_summary(m)},
+          {"bbox_min", m.bbox_min},
+          {"bbox_max", m.bbox_max},
+          {"components", comps}};
+}
+
+nlohmann::json directed_json(const DirectedDistance& d) {
+  return {{"max", d.max}, {"mean", d.mean}, {"rms", d.rms}, {"samples", d.samples}};
+}
+
+}  // namespace
+
+CompareResult compare(const TriMesh& a, const TriMesh& b, const CompareOptions& opts) {
+  if (a.triangles.empty()) throw InvalidInput("compare: the first surface (a) has no faces");
+  if (b.triangles.empty()) throw InvalidInput("compare: the second surface (b) has no faces");
+  for (const TriMesh* m : {&a, &b})
+    for (const auto& t : m->triangles)
+      if (!valid_face(*m, t))
+        throw InvalidInput(std::string("compare: surface ") + (m == &a ? "a" : "b") +
+                           " has a vertex index out of range (" +
+                           std::to_string(std::max({t[0], t[1], t[2]})) +
+                           " >= " + std::to_string(m->positions.size()) + ")");
+
+  for (const TriMesh* m : {&a, &b})
+    for (std::size_t v = 0; v < m->positions.size(); ++v)
+      for (float x : m->positions[v])
+        if (!std::isfinite(x))
+          throw InvalidInput(std::string("compare: surface ") + (m == &a ? "a" : "b") +
+                             " has a non-finite position at vertex " + std::to_string(v));
+  CompareResult result;
+  std::unique_ptr<detail::TriangleBvh> bvh_a, bvh_b;
+  Samples sa, sb;
+  tbb::parallel_invoke(
+      [&] { result.a = measure(a); }, [&] { result.b = measure(b); },
+      [&] { bvh_a = std::make_unique<detail::TriangleBvh>(a.positions, a.triangles); },
+      [&] { bvh_b = std::make_unique<detail::TriangleBvh>(b.positions, b.triangles); },
+      [&] { sa = make_samples(a, opts.samples, opts.seed); },
+      [&] { sb = make_samples(b, opts.samples, opts.seed + 1); });
+  if (opts.progress && !opts.progress(0.1)) throw Cancelled();
+
+  const double total = static_cast<double>(sa.points.size() + sb.points.size());
+  auto stepper = [&](double offset, double size) {
+    return [&opts, offset, size, total](double f) {
+      if (opts.progress && !opts.progress(0.1 + 0.9 * (offset + f * size) / total))
+        throw Cancelled();
+    };
+  };
+  const double na = static_cast<double>(sa.points.size());
+  const std::vector<float> da = distances(sa.points, *bvh_b, stepper(0, na));
+  const std::vector<float> db = distances(sb.points, *bvh_a, stepper(na, total - na));
+
+  result.a_to_b = summarize(da);
+  result.b_to_a = summarize(db);
+  result.hausdorff = std::max(result.a_to_b.max, result.b_to_a.max);
+
+  // Per vertex of a; unreferenced vertices get their distance too (they are not samples).
+  result.a_vertex_distance.assign(a.positions.size(), 0.0f);
+  for (std::size_t i = 0; i < sa.vertex_of.size(); ++i)
+    result.a_vertex_distance[sa.vertex_of[i]] = da[i];
+  for (uint32_t v = 0; v < a.positions.size(); ++v) {
+    if (std::binary_search(sa.vertex_of.begin(), sa.vertex_of.end(), v)) continue;
+    result.a_vertex_distance[v] = std::sqrt(bvh_b->closest(a.positions[v]).distance_sq);
+  }
+  if (opts.progress && !opts.progress(1.0)) throw Cancelled();
+  return result;
+}
+
+std::vector<std::array<float, 3>> distance_colors(const std::vector<float>& values, double lo,
+                                                  double hi) {
+  // blue, cyan, green, yellow, red
+  static const float kStops[5][3] = {{0.05f, 0.15f, 0.9f},
+                                     {0.0f, 0.8f, 0.9f},
+                                     {0.1f, 0.85f, 0.1f},
+                                     {0.95f, 0.9f, 0.05f},
+                                     {0.9f, 0.05f, 0.05f}};
+  std::vector<std::array<float, 3>> out(values.size());
+  const double span = hi > lo ? hi - lo : 1.0;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    double t = (values[i] - lo) / span;
+    t = std::isfinite(t) ? std::clamp(t, 0.0, 1.0) : 1.0;
+    const double x = t * 4;
+    const int k = std::min(3, static_cast<int>(x));
+    const float w = static_cast<float>(x - k);
+    for (int c = 0; c < 3; ++c) out[i][c] = (1 - w) * kStops[k][c] + w * kStops[k + 1][c];
+  }
+  return out;
+}
+
+std::string genus_summary(const MeshMeasure& m, std::size_t max_groups) {
+  if (m.components.empty()) return "none";
+  std::map<long long, std::size_t> genus;
+  std::size_t open = 0;
+  for (const auto& c : m.components) {
+    if (c.closed)
+      ++genus[c.genus];
+    else
+      ++open;
+  }
+  std::vector<std::pair<long long, std::size_t>> groups(genus.begin(), genus.end());
+  std::size_t more = 0;
+  if (max_groups > 0 && groups.size() > max_groups) {
+    // The most frequent genus values, then listed by genus.
+    std::stable_sort(groups.begin(), groups.end(),
+                     [](const auto& x, const auto& y) { return x.second > y.second; });
+    more = groups.size() - max_groups;
+    groups.resize(max_groups);
+    std::sort(groups.begin(), groups.end());
+  }
+  std::ostringstream out;
+  bool first = true;
+  for (const auto& [g, n] : groups) {
+    out << (first ? "genus " : ", ") << g << " x" << n;
+    first = false;
+  }
+  if (more) out << ", +" << more << " more";
+  if (open) out << (first ? "" : "; ") << open << " open";
+  return out.str();
+}
+
+std::string compare_legend_json(double lo, double hi, const std::string& name_a,
+                                const std::string& name_b) {
+  const nlohmann::json j = {
+      {"compare", {{"legend_min", lo}, {"legend_max", hi}, {"a", name_a}, {"b", name_b}}}};
+  return j.dump(2) + "\n";
+}
+
+std::string compare_to_json(const CompareResult& r, const std::string& name_a,
+                            const std::string& name_b) {
+  nlohmann::json j = {{"a_name", name_a},
+                      {"b_name", name_b},
+                      {"a", measure_json(r.a)},
+                      {"b", measure_json(r.b)},
+                      {"a_to_b", directed_json(r.a_to_b)},
+                      {"b_to_a", directed_json(r.b_to_a)},
+                      {"hausdorff", r.hausdorff}};
+  return j.dump(2) + "\n";
+}
+
+}  // namespace qjulia

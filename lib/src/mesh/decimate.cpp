@@ -1,0 +1,358 @@
+// Decimation: meshoptimizer's quadric simplifier, made topology-safe, run in parallel on
+// spatial chunks, plus a sample-based Hausdorff check.
+//
+// meshopt_simplify (0.18) collapses edges by quadric error and rejects normal flips, but it does
+// not test the link condition, so a collapse can create a non-manifold edge (mostly a "fin": two
+// coincident faces of opposite orientation after a valence-3 vertex is collapsed). We remove fins
+// (which leaves the surface closed) and verify the result; where it is still not manifold, the
+// input faces around the offending vertices are frozen: cut out before simplifying again with
+// meshopt_SimplifyLockBorder (the rim of the hole is then locked and survives exactly) and put
+// back afterwards. The frozen region grows until the result is manifold.
+//
+// meshoptimizer is single-threaded (~1M faces/s here). Large meshes are therefore cut into
+// slabs along their longest axis, each simplified on its own thread with its cut edges locked;
+// a second, small pass over the joined result removes the full-resolution seams.
+#include "qjulia/mesh/decimate.h"
+
+#include <meshoptimizer.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <iterator>
+#include <memory>
+#include <string>
+#include <thread>
+#include <unordered_map>
+
+#include "mesh/hausdorff.h"
+#include "base/mesh_check.h"
+#include "qjulia/base/error.h"
+
+namespace qjulia {
+
+namespace {
+
+constexpr std::size_t kChunkFaces = 150'000;  // faces per chunk; below 2x this, one pass
+constexpr int kMaxAttempts = 12;
+
+bool debug_enabled() { return std::getenv("QJULIA_DEBUG_DECIMATE") != nullptr; }
+
+void report_progress(const ProgressFn& progress, double fraction) {
+  if (progress && !progress(fraction)) throw Cancelled();
+}
+
+/// One meshopt pass leaving the faces marked in `frozen` untouched; returns the triangles
+/// (indexing mesh.positions) with fins removed.
+std::vector<std::array<uint32_t, 3>> simplify_once(const TriMesh& mesh,
+                                                   const std::vector<uint8_t>& frozen,
+                                                   std::size_t target_faces, float rel_error) {
+  std::vector<unsigned int> indices;
+  indices.reserve(mesh.triangles.size() * 3);
+  TriMesh kept;
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
+    const auto& t = mesh.triangles[f];
+    if (!frozen.empty() && frozen[f])
+      kept.triangles.push_back(t);
+    else
+      indices.insert(indices.end(), t.begin(), t.end());
+  }
+  const std::size_t target =
+      std::min(indices.size(), target_faces > kept.triangles.size()
+                                   ? (target_faces - kept.triangles.size()) * 3
+                                   : std::size_t(0));
+  std::vector<unsigned int> out(indices.size());
+  std::size_t n = meshopt_simplify(
+      out.data(), indices.data(), indices.size(), &mesh.positions[0][0], mesh.positions.size(),
+      sizeof(mesh.positions[0]), target, rel_error, meshopt_SimplifyLockBorder, nullptr);
+  kept.triangles.reserve(kept.triangles.size() + n / 3);
+  for (std::size_t i = 0; i < n; i += 3) kept.triangles.push_back({out[i], out[i + 1], out[i + 2]});
+  detail::drop_repeated_and_fins(kept);
+  return std::move(kept.triangles);
+}
+
+/// Simplifies `mesh` (positions and triangles only) to `target_faces` / `abs_error`, repeating
+/// with a growing frozen region until the result is manifold (boundary edges, e.g. at chunk
+/// cuts, are locked and allowed). Returns triangles indexing mesh.positions.
+std::vector<std::array<uint32_t, 3>> simplify_manifold(const TriMesh& mesh,
+                                                       std::size_t target_faces, double abs_error,
+                                                       bool* ok,
+                                                       const std::vector<uint32_t>& pinned = {}) {
+  const float scale = meshopt_simplifyScale(&mesh.positions[0][0], mesh.positions.size(),
+                                            sizeof(mesh.positions[0]));
+  const float rel_error = static_cast<float>(std::min(abs_error / std::max(scale, 1e-30f), 1e30));
+  std::vector<uint8_t> frozen(mesh.triangles.size(), 0);
+  std::vector<uint8_t> hot(mesh.positions.size(), 0);
+  std::unique_ptr<detail::VertexFaces> stars;
+  // Freezes the faces around `seeds` and `rings` rings beyond.
+  auto freeze = [&](std::vector<uint32_t> ring, int rings) {
+    if (!stars) stars = std::make_unique<detail::VertexFaces>(mesh);
+    for (int grow = 0; grow < rings; ++grow) {
+      std::vector<uint32_t> next;
+      for (uint32_t v : ring)
+        for (uint32_t k = stars->offsets[v]; k < stars->offsets[v + 1]; ++k) {
+          const uint32_t f = stars->faces[k];
+          if (frozen[f]) continue;
+          frozen[f] = 1;
+          for (uint32_t w : mesh.triangles[f])
+            if (!hot[w]) {
+              hot[w] = 1;
+              next.push_back(w);
+            }
+        }
+      ring.swap(next);
+    }
+  };
+  // Vertices already non-manifold in the input stay as they are: their faces are frozen from the
+  // start and they are not counted as new defects. So are the faces around a chunk's cut: then
+  // no two chunks can both join the same pair of cut vertices (a non-manifold edge that neither
+  // chunk would see), as the vertices a chunk may connect belong to it alone.
+  const auto input_topology = detail::check_topology(mesh, /*allow_boundary=*/true);
+  const std::vector<uint32_t>& input_bad = input_topology.bad_vertices;
+  std::vector<uint32_t> seeds = input_bad;
+  seeds.insert(seeds.end(), input_topology.boundary_vertices.begin(),
+               input_topology.boundary_vertices.end());
+  if (!seeds.empty()) freeze(seeds, 1);
+  // Vertices of faces that intersected in an earlier result: two rings kept as they are.
+  if (!pinned.empty()) freeze(pinned, 2);
+  TriMesh out;
+  for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
+    out.triangles = simplify_once(mesh, frozen, target_faces, rel_error);
+    out.positions.clear();  // check_topology only needs the vertex count
+    out.positions.resize(mesh.positions.size());
+    const auto topo = detail::check_topology(out, /*allow_boundary=*/true);
+    std::vector<uint32_t> fresh;
+    std::set_difference(topo.bad_vertices.begin(), topo.bad_vertices.end(), input_bad.begin(),
+                        input_bad.end(), std::back_inserter(fresh));
+    if (debug_enabled())
+      std::fprintf(stderr, "  pass %d: %zu -> %zu faces, new defects at %zu vertices\n", attempt,
+                   mesh.triangles.size(), out.triangles.size(), fresh.size());
+    if (fresh.empty()) {
+      *ok = true;
+      return std::move(out.triangles);
+    }
+    // Freeze the input faces around the new defects: two rings, one more each round.
+    freeze(fresh, 2 + attempt);
+  }
+  // Give up simplifying: return the input, which is manifold.
+  *ok = false;
+  return mesh.triangles;
+}
+
+/// Interleaves the low 21 bits of x, y, z.
+uint64_t morton(uint32_t x, uint32_t y, uint32_t z) {
+  auto spread = [](uint64_t v) {
+    v &= 0x1fffff;
+    v = (v | v << 32) & 0x1f00000000ffffULL;
+    v = (v | v << 16) & 0x1f0000ff0000ffULL;
+    v = (v | v << 8) & 0x100f00f00f00f00fULL;
+    v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
+    v = (v | v << 2) & 0x1249249249249249ULL;
+    return v;
+  };
+  return spread(x) | spread(y) << 1 | spread(z) << 2;
+}
+
+/// Stage 1 for large meshes: compact chunks of faces (consecutive along a Morton curve of
+/// their centroids), simplified in parallel with their cut edges locked. Returns triangles
+/// indexing mesh.positions.
+std::vector<std::array<uint32_t, 3>> simplify_chunks(const TriMesh& mesh, std::size_t chunks,
+                                                     double ratio, double abs_error,
+                                                     const std::vector<uint8_t>& pinned) {
+  const std::size_t nf = mesh.triangles.size();
+  std::array<double, 3> lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (const auto& p : mesh.positions)
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], double(p[k]));
+      hi[k] = std::max(hi[k], double(p[k]));
+    }
+  const double extent = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-30});
+  const double to_grid = double((1 << 21) - 1) / (3.0 * extent);
+  std::vector<std::pair<uint64_t, uint32_t>> order(nf);
+  tbb::parallel_for(std::size_t(0), nf, [&](std::size_t f) {
+    const auto& t = mesh.triangles[f];
+    uint32_t c[3];
+    for (int k = 0; k < 3; ++k)
+      c[k] = static_cast<uint32_t>((double(mesh.positions[t[0]][k]) + mesh.positions[t[1]][k] +
+                                    mesh.positions[t[2]][k] - 3 * lo[k]) *
+                                   to_grid);
+    order[f] = {morton(c[0], c[1], c[2]), static_cast<uint32_t>(f)};
+  });
+  std::vector<std::size_t> cut(chunks + 1);
+  for (std::size_t c = 0; c <= chunks; ++c) cut[c] = nf * c / chunks;
+  tbb::parallel_sort(order.begin(), order.end());
+  std::vector<std::vector<std::array<uint32_t, 3>>> results(chunks);
+  tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+    // Local mesh with compact vertices.
+    TriMesh local;
+    std::vector<uint32_t> global, local_pinned;
+    std::unordered_map<uint32_t, uint32_t> to_local;
+    to_local.reserve((cut[c + 1] - cut[c]) * 3 / 2);
+    for (std::size_t i = cut[c]; i < cut[c + 1]; ++i) {
+      std::array<uint32_t, 3> t;
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t v = mesh.triangles[order[i].second][k];
+        auto [it, fresh] = to_local.emplace(v, static_cast<uint32_t>(global.size()));
+        if (fresh) {
+          if (!pinned.empty() && pinned[v]) local_pinned.push_back(it->second);
+          global.push_back(v);
+          local.positions.push_back(mesh.positions[v]);
+        }
+        t[k] = it->second;
+      }
+      local.triangles.push_back(t);
+    }
+    bool ok = false;
+    const auto target = static_cast<std::size_t>(std::ceil(local.triangles.size() * ratio));
+    auto tris = simplify_manifold(local, target, abs_error, &ok, local_pinned);
+    for (auto& t : tris)
+      for (auto& v : t) v = global[v];
+    results[c] = std::move(tris);
+  });
+  std::vector<std::array<uint32_t, 3>> all;
+  for (auto& r : results) all.insert(all.end(), r.begin(), r.end());
+  return all;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateReport* report) {
+  if (!opts.faces && !opts.max_error) throw InvalidInput("decimate: set faces and/or max_error");
+  if (opts.faces && *opts.faces < 1)
+    throw InvalidInput("decimate: faces must be >= 1, got " + std::to_string(*opts.faces));
+  if (opts.max_error && !(*opts.max_error > 0 && std::isfinite(*opts.max_error)))
+    throw InvalidInput("decimate: max_error must be a positive number, got " +
+                       std::to_string(*opts.max_error));
+  const std::size_t nv = mesh.positions.size();
+  for (const auto& t : mesh.triangles)
+    for (uint32_t v : t)
+      if (v >= nv)
+        throw InvalidInput("decimate: triangle index " + std::to_string(v) + " out of range (" +
+                           std::to_string(nv) + " vertices)");
+
+  DecimateReport rep;
+  rep.faces_before = mesh.face_count();
+  const std::size_t budget = opts.faces ? static_cast<std::size_t>(*opts.faces) : std::size_t(0);
+  if (mesh.triangles.empty() || (opts.faces && budget >= mesh.face_count())) {
+    rep.faces_after = mesh.face_count();
+    const auto topo = detail::check_topology(mesh);
+    rep.closed = topo.closed();
+    rep.manifold = topo.manifold() && topo.oriented();
+    if (report) *report = rep;
+    return mesh;
+  }
+  report_progress(opts.progress, 0.0);
+  const bool debug = debug_enabled();
+  auto t0 = std::chrono::steady_clock::now();
+
+  // meshoptimizer's error is the quadric (distance to planes) error, not the Hausdorff distance:
+  // close to it on smooth surfaces, 1.6-1.8x smaller on bumpy ones. The first round uses the
+  // bound (half per stage); when the measured distance exceeds it, the bound is scaled by
+  // 0.85 * max_error / measured and the work redone.
+  double abs_error = opts.max_error ? *opts.max_error : 1e30;
+  TriMesh out;
+  bool use_chunks = mesh.face_count() >= 2 * kChunkFaces;
+  std::vector<uint8_t> pinned;  // input vertices kept with their stars (self-intersections)
+  int intersection_rounds = 0;
+  for (int attempt = 0; attempt < 10; ++attempt) {
+    TriMesh work;  // positions shared with the input; triangles as simplified so far
+    work.positions = mesh.positions;
+    work.colors = mesh.colors;
+    work.triangles = mesh.triangles;
+    std::vector<uint32_t> to_input(nv);  // work vertex -> input vertex
+    for (uint32_t i = 0; i < nv; ++i) to_input[i] = i;
+    auto compact = [&] {
+      std::vector<uint32_t> remap;
+      detail::compact_vertices(work, &remap);
+      std::vector<uint32_t> next(work.positions.size());
+      for (std::size_t i = 0; i < remap.size(); ++i)
+        if (remap[i] != 0xffffffffu) next[remap[i]] = to_input[i];
+      to_input.swap(next);
+    };
+    const std::size_t threads = std::max(1u, std::thread::hardware_concurrency());
+    if (use_chunks) {
+      const std::size_t chunks =
+          std::max<std::size_t>(2 * threads, (mesh.face_count() + kChunkFaces - 1) / kChunkFaces);
+      // Stage 1 stops at 1.5 times the budget so that stage 2 has room to dissolve the seams.
+      const double ratio = opts.faces ? std::min(1.0, 1.5 * budget / mesh.face_count()) : 0.0;
+      work.triangles = simplify_chunks(mesh, chunks, ratio, 0.5 * abs_error, pinned);
+      if (debug)
+        std::fprintf(stderr, "decimate: %zu chunks -> %zu faces, %.2f s\n", chunks,
+                     work.triangles.size(), seconds_since(t0));
+    }
+    report_progress(opts.progress, 0.4);
+    // Stage 2 (or the only stage): the whole mesh.
+    if (!opts.faces || work.face_count() > budget) {
+      // Compact first so meshoptimizer's per-vertex work follows the smaller mesh.
+      compact();
+      std::vector<uint32_t> work_pinned;
+      if (!pinned.empty())
+        for (uint32_t i = 0; i < to_input.size(); ++i)
+          if (pinned[to_input[i]]) work_pinned.push_back(i);
+      bool ok = false;
+      work.triangles = simplify_manifold(work, budget, 0.5 * abs_error, &ok, work_pinned);
+    }
+    compact();
+    out = std::move(work);
+    if (debug)
+      std::fprintf(stderr, "decimate: -> %zu faces, %.2f s\n", out.face_count(), seconds_since(t0));
+    // Safety net: a defect that the chunk-wise checks could not see means redoing it in one piece
+    // (unless the input had the defect already).
+    const auto topo = detail::check_topology(out);
+    rep.closed = topo.closed();
+    rep.manifold = topo.manifold() && topo.oriented();
+    if (use_chunks && !(rep.closed && rep.manifold)) {
+      const auto in = detail::check_topology(mesh);
+      if (in.closed() && in.manifold() && in.oriented()) {
+        use_chunks = false;
+        continue;
+      }
+    }
+    report_progress(opts.progress, 0.7);
+    rep.hausdorff = detail::hausdorff_distance(mesh, out).distance();
+    if (debug)
+      std::fprintf(stderr, "decimate: hausdorff %g, %.2f s\n", rep.hausdorff, seconds_since(t0));
+    if (opts.max_error && rep.hausdorff > *opts.max_error) {
+      abs_error *= 0.85 * (*opts.max_error / rep.hausdorff);
+      continue;
+    }
+    if (opts.avoid_self_intersections) {
+      // Pin the input vertices of intersecting faces and redo; stop when every intersecting
+      // face is already pinned (then the input had the intersection) or after three rounds.
+      const auto pairs = detail::self_intersecting_face_pairs(out);
+      rep.self_intersections = pairs.size();
+      if (debug)
+        std::fprintf(stderr, "decimate: %zu self-intersecting pairs, %.2f s\n", pairs.size(),
+                     seconds_since(t0));
+      if (pinned.empty()) pinned.assign(nv, 0);
+      bool fresh = false;
+      for (const auto& [a, b] : pairs)
+        for (uint32_t f : {a, b})
+          for (uint32_t v : out.triangles[f])
+            if (!pinned[to_input[v]]) {
+              pinned[to_input[v]] = 1;
+              fresh = true;
+            }
+      if (fresh && intersection_rounds++ < 3) continue;
+    }
+    break;
+  }
+  // Input normals describe the fine surface; the caller recomputes them for the coarse one.
+  out.normals.clear();
+  rep.faces_after = out.face_count();
+  rep.target_reached = (!opts.faces || rep.faces_after <= budget) &&
+                       (!opts.max_error || rep.hausdorff <= *opts.max_error);
+  report_progress(opts.progress, 1.0);
+  if (report) *report = rep;
+  return out;
+}
+
+}  // namespace qjulia

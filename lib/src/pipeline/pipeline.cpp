@@ -1,0 +1,209 @@
+#include "qjulia/pipeline/pipeline.h"
+
+#include <sys/resource.h>
+
+#include <chrono>
+#include <nlohmann/json.hpp>
+
+#include "qjulia/mesh/clean.h"
+#include "qjulia/mesh/decimate.h"
+#include "qjulia/base/error.h"
+#include "qjulia/surface/extract.h"
+#include "qjulia/mesh/print.h"
+
+namespace qjulia {
+namespace {
+
+class StageTimer {
+ public:
+  StageTimer(RunStats& stats, const StageProgressFn& progress)
+      : stats_(stats), progress_(progress) {}
+
+  // Starts `stage` and returns its ProgressFn.
+  ProgressFn start(const std::string& stage) {
+    stage_ = stage;
+    begin_ = std::chrono::steady_clock::now();
+    if (progress_ && !progress_(stage, 0.0)) throw Cancelled();
+    return [this, stage](double f) { return !progress_ || progress_(stage, f); };
+  }
+  void stop() {
+    const double s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - begin_).count();
+    stats_.timings.emplace_back(stage_, s);
+  }
+
+ private:
+  RunStats& stats_;
+  const StageProgressFn& progress_;
+  std::string stage_;
+  std::chrono::steady_clock::time_point begin_;
+};
+
+}  // namespace
+
+const char* version() { return QJULIA_VERSION; }
+
+std::size_t peak_rss_bytes() {
+  rusage usage{};
+  if (getrusage(RUSAGE_SELF, &usage) != 0) return 0;
+  return static_cast<std::size_t>(usage.ru_maxrss) * 1024;  // Linux reports KiB
+}
+
+PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
+  validate(params);
+  PipelineResult result;
+  RunStats& stats = result.stats;
+  StageTimer timer(stats, opts.progress);
+
+  SampleOptions sopts;
+  sopts.dense = opts.dense;
+  sopts.progress = timer.start("sample");
+  SampledGrid grid = sample(params, sopts);
+  timer.stop();
+  stats.evaluations = grid.evaluations();
+  stats.dense_evaluations = grid.dense_evaluations();
+  stats.crossing_cells = grid.crossing_cells();
+  stats.voxel_size = grid.voxel_size();
+  stats.grid_points = grid.points();
+
+  ExtractOptions eopts;
+  eopts.color = params.mesh.color;
+  eopts.progress = timer.start("extract");
+  ExtractStats estats;
+  TriMesh mesh = extract(grid, params, eopts, &estats);
+  timer.stop();
+  stats.refine_evaluations = estats.evaluations;
+
+  CleanOptions copts;
+  copts.min_component_volume = params.mesh.min_component;
+  copts.voxel_size = grid.voxel_size();
+  copts.progress = timer.start("clean");
+  CleanReport creport;
+  mesh = clean(mesh, copts, &creport);
+  timer.stop();
+  stats.clean = creport;
+
+  // Printing: scale first (the thickness is in millimetres), thicken, then decimate, so the face
+  // budget holds for the final mesh.
+  if (params.print.size_mm) {
+    timer.start("scale");
+    stats.scale = scale_to_longest_side(mesh, *params.print.size_mm);
+    stats.unit = "mm";
+    timer.stop();
+  }
+  if (params.print.min_thickness_mm) {
+    ThickenOptions topts;
+    // Without --size the mesh is in model units, read as millimetres.
+    topts.min_thickness = *params.print.min_thickness_mm;
+    topts.progress = timer.start("thicken");
+    mesh = thicken(mesh, topts);
+    timer.stop();
+  }
+  if (params.mesh.faces || params.mesh.max_error) {
+    DecimateOptions dopts;
+    dopts.faces = params.mesh.faces;
+    // max_error is in model units; the mesh may have been scaled to millimetres.
+    if (params.mesh.max_error) dopts.max_error = *params.mesh.max_error * stats.scale;
+    dopts.avoid_self_intersections = params.print.check;
+    dopts.progress = timer.start("decimate");
+    DecimateReport dreport;
+    mesh = decimate(mesh, dopts, &dreport);
+    timer.stop();
+    stats.decimate = dreport;
+  }
+  if (params.print.check) {
+    timer.start("check");
+    stats.self_intersections = count_self_intersections(mesh);
+    timer.stop();
+  }
+  if (mesh.normals.size() != mesh.positions.size()) compute_normals(mesh);
+
+  timer.start("measure");
+  stats.measure = measure(mesh);
+  timer.stop();
+  stats.peak_rss_bytes = peak_rss_bytes();
+  result.mesh = std::move(mesh);
+  if (opts.keep_grid) result.grid = std::move(grid);
+  return result;
+}
+
+std::string stats_to_json(const RunStats& s, const Params& params) {
+  using nlohmann::json;
+  json j;
+  j["qjulia_version"] = version();
+  j["evaluations"] = s.evaluations;
+  j["refine_evaluations"] = s.refine_evaluations;
+  j["total_evaluations"] = s.evaluations + s.refine_evaluations;
+  j["dense_evaluations"] = s.dense_evaluations;
+  j["evaluation_ratio"] =
+      s.dense_evaluations ? static_cast<double>(s.evaluations) / s.dense_evaluations : 0.0;
+  j["crossing_cells"] = s.crossing_cells;
+  j["voxel_size"] = s.voxel_size;
+  j["grid_points"] = s.grid_points;
+  const MeshMeasure& m = s.measure;
+  j["vertices"] = m.vertices;
+  j["faces"] = m.faces;
+  j["edges"] = m.edges;
+  j["closed"] = m.closed;
+  j["manifold"] = m.manifold;
+  j["oriented"] = m.oriented;
+  j["boundary_edges"] = m.boundary_edges;
+  j["nonmanifold_edges"] = m.nonmanifold_edges;
+  j["nonmanifold_vertices"] = m.nonmanifold_vertices;
+  j["degenerate_faces"] = m.degenerate_faces;
+  j["volume"] = m.volume;
+  j["area"] = m.area;
+  j["euler"] = m.euler;
+  j["components"] = m.components.size();
+  j["bbox"] = {{"min", m.bbox_min}, {"max", m.bbox_max}};
+  j["unit"] = s.unit.empty() ? "model" : s.unit;
+  j["scale"] = s.scale;
+  json timings = json::object();
+  double total = 0;
+  for (const auto& [stage, seconds] : s.timings) {
+    timings[stage] = seconds;
+    total += seconds;
+  }
+  timings["total"] = total;
+  j["timings"] = timings;
+  j["peak_rss_bytes"] = s.peak_rss_bytes;
+  if (s.clean) {
+    const CleanReport& c = *s.clean;
+    j["clean"] = {{"components_before", c.components_before},
+                  {"components_after", c.components_after},
+                  {"removed_components", c.removed_components},
+                  {"removed_faces", c.removed_faces},
+                  {"merged_vertices", c.merged_vertices},
+                  {"degenerate_faces_removed", c.degenerate_faces_removed},
+                  {"degenerate_faces_flipped", c.degenerate_faces_flipped},
+                  {"min_component_volume", c.min_component_volume}};
+  }
+  if (s.decimate) {
+    const DecimateReport& d = *s.decimate;
+    j["decimate"] = {{"faces_before", d.faces_before},
+                     {"faces_after", d.faces_after},
+                     {"hausdorff", d.hausdorff},
+                     {"target_reached", d.target_reached},
+                     {"closed", d.closed},
+                     {"manifold", d.manifold}};
+    if (d.self_intersections) j["decimate"]["self_intersections"] = *d.self_intersections;
+  }
+  if (s.self_intersections) j["self_intersections"] = *s.self_intersections;
+  if (params.print.size_mm || params.print.min_thickness_mm || params.print.check) {
+    json pr;
+    pr["closed"] = m.closed;
+    pr["manifold"] = m.manifold;
+    pr["components"] = m.components.size();
+    if (s.self_intersections) pr["self_intersections"] = *s.self_intersections;
+    const bool mm = s.unit == "mm";
+    pr["volume_cm3"] = mm ? json(m.volume / 1000.0) : json(nullptr);
+    pr["bbox_mm"] = mm ? json::array({m.bbox_max[0] - m.bbox_min[0], m.bbox_max[1] - m.bbox_min[1],
+                                      m.bbox_max[2] - m.bbox_min[2]})
+                       : json(nullptr);
+    j["printability"] = pr;
+  }
+  j["parameters"] = json::parse(params_to_json(params, false));
+  return j.dump(2) + "\n";
+}
+
+}  // namespace qjulia
