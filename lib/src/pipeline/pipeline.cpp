@@ -5,26 +5,29 @@
 #include <chrono>
 #include <nlohmann/json.hpp>
 
+#include "qjulia/base/error.h"
 #include "qjulia/mesh/clean.h"
 #include "qjulia/mesh/decimate.h"
-#include "qjulia/base/error.h"
-#include "qjulia/surface/extract.h"
 #include "qjulia/mesh/print.h"
+#include "qjulia/surface/extract.h"
 
 namespace qjulia {
 namespace {
 
 class StageTimer {
  public:
-  StageTimer(RunStats& stats, const StageProgressFn& progress)
-      : stats_(stats), progress_(progress) {}
+  StageTimer(RunStats& stats, const StageProgressFn& progress, const CancelToken* cancel)
+      : stats_(stats), progress_(progress), cancel_(cancel) {}
 
   // Starts `stage` and returns its ProgressFn.
   ProgressFn start(const std::string& stage) {
     stage_ = stage;
     begin_ = std::chrono::steady_clock::now();
+    throw_if_cancelled(cancel_);
     if (progress_ && !progress_(stage, 0.0)) throw Cancelled();
-    return [this, stage](double f) { return !progress_ || progress_(stage, f); };
+    return [this, stage](double f) {
+      return !(cancel_ && cancel_->requested()) && (!progress_ || progress_(stage, f));
+    };
   }
   void stop() {
     const double s =
@@ -35,6 +38,7 @@ class StageTimer {
  private:
   RunStats& stats_;
   const StageProgressFn& progress_;
+  const CancelToken* cancel_;
   std::string stage_;
   std::chrono::steady_clock::time_point begin_;
 };
@@ -53,10 +57,11 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   validate(params);
   PipelineResult result;
   RunStats& stats = result.stats;
-  StageTimer timer(stats, opts.progress);
+  StageTimer timer(stats, opts.progress, opts.cancel);
 
   SampleOptions sopts;
   sopts.dense = opts.dense;
+  sopts.cancel = opts.cancel;
   sopts.progress = timer.start("sample");
   SampledGrid grid = sample(params, sopts);
   timer.stop();
@@ -68,6 +73,7 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
 
   ExtractOptions eopts;
   eopts.color = params.mesh.color;
+  eopts.cancel = opts.cancel;
   eopts.progress = timer.start("extract");
   ExtractStats estats;
   TriMesh mesh = extract(grid, params, eopts, &estats);
@@ -77,6 +83,7 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   CleanOptions copts;
   copts.min_component_volume = params.mesh.min_component;
   copts.voxel_size = grid.voxel_size();
+  copts.cancel = opts.cancel;
   copts.progress = timer.start("clean");
   CleanReport creport;
   mesh = clean(mesh, copts, &creport);
@@ -95,6 +102,7 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
     ThickenOptions topts;
     // Without --size the mesh is in model units, read as millimetres.
     topts.min_thickness = *params.print.min_thickness_mm;
+    topts.cancel = opts.cancel;
     topts.progress = timer.start("thicken");
     mesh = thicken(mesh, topts);
     timer.stop();
@@ -105,6 +113,7 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
     // max_error is in model units; the mesh may have been scaled to millimetres.
     if (params.mesh.max_error) dopts.max_error = *params.mesh.max_error * stats.scale;
     dopts.avoid_self_intersections = params.print.check;
+    dopts.cancel = opts.cancel;
     dopts.progress = timer.start("decimate");
     DecimateReport dreport;
     mesh = decimate(mesh, dopts, &dreport);

@@ -13,7 +13,15 @@ class InvalidInput : public std::invalid_argument {
   explicit InvalidInput(const std::string& what) : std::invalid_argument(what) {}
 };
 
-/// Thrown when a progress callback asked to stop.
+/// Thrown when a job would need more memory than it may use (the memory estimate of a run, or
+/// an input too large to load). The message gives the estimate, the limit and what fits (e.g.
+/// the largest resolution). An InvalidInput: the CLI exits 2, Python raises MemoryError.
+class TooLarge : public InvalidInput {
+ public:
+  explicit TooLarge(const std::string& what) : InvalidInput(what) {}
+};
+
+/// Thrown when a progress callback or a CancelToken asked to stop.
 class Cancelled : public std::runtime_error {
  public:
   Cancelled() : std::runtime_error("cancelled") {}

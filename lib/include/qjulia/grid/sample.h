@@ -6,8 +6,8 @@
 #include <memory>
 #include <string>
 
-#include "qjulia/field/params.h"
 #include "qjulia/base/progress.h"
+#include "qjulia/field/params.h"
 
 namespace qjulia {
 
@@ -31,6 +31,8 @@ struct SampleOptions {
   int coarse_block = 16;
   /// Progress in [0, 1]; return false to cancel.
   ProgressFn progress;
+  /// Checked throughout the work; when requested, the stage throws Cancelled.
+  const CancelToken* cancel = nullptr;
 };
 
 /// The sampled field on the points of grid_geometry(params). Evaluated points hold F; uniform

@@ -24,6 +24,8 @@ struct ExportOptions {
   /// Units of the positions: "mm" for printing (3MF unit, STL header), "" for model units.
   std::string unit;
   ProgressFn progress;
+  /// Checked throughout the work; when requested, the stage throws Cancelled.
+  const CancelToken* cancel = nullptr;
 };
 
 /// Writes `mesh` to `path` in the format of its extension, through a temporary file that is

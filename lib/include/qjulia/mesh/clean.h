@@ -23,6 +23,8 @@ struct CleanOptions {
   /// The sampling voxel size (model units), for the default threshold; 0 = no default removal.
   double voxel_size = 0.0;
   ProgressFn progress;
+  /// Checked throughout the work; when requested, the stage throws Cancelled.
+  const CancelToken* cancel = nullptr;
 };
 
 /// What clean() did.

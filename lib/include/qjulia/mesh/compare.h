@@ -27,6 +27,8 @@ struct CompareOptions {
   /// Seed of the random surface samples: the same meshes and seed give the same result.
   std::uint64_t seed = 20260101;
   ProgressFn progress;
+  /// Checked throughout the work; when requested, the stage throws Cancelled.
+  const CancelToken* cancel = nullptr;
 };
 
 /// The result of compare().

@@ -17,6 +17,8 @@ struct DecimateOptions {
   /// decimation keeping the faces around intersecting ones (up to three rounds).
   bool avoid_self_intersections = false;
   ProgressFn progress;
+  /// Checked throughout the work; when requested, the stage throws Cancelled.
+  const CancelToken* cancel = nullptr;
 };
 
 /// What decimate() did.

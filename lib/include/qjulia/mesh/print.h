@@ -20,6 +20,8 @@ struct ThickenOptions {
   double min_thickness = 0.0;  ///< thicken parts thinner than this, in the mesh's units
   double voxel_size = 0.0;     ///< resolution of the level set used; 0 = min_thickness / 4
   ProgressFn progress;
+  /// Checked throughout the work; when requested, the stage throws Cancelled.
+  const CancelToken* cancel = nullptr;
 };
 
 /// Thickens the parts of a closed mesh thinner than opts.min_thickness (OpenVDB level-set

@@ -9,11 +9,11 @@
 #include <utility>
 #include <vector>
 
-#include "qjulia/mesh/clean.h"
-#include "qjulia/mesh/decimate.h"
 #include "qjulia/base/mesh.h"
 #include "qjulia/field/params.h"
 #include "qjulia/grid/sample.h"
+#include "qjulia/mesh/clean.h"
+#include "qjulia/mesh/decimate.h"
 
 namespace qjulia {
 
@@ -26,6 +26,11 @@ struct PipelineOptions {
   bool dense = false;      ///< evaluate every grid point (validation path)
   bool keep_grid = false;  ///< keep the sampled grid in the result (for --vdb)
   StageProgressFn progress;
+  /// Checked by every stage; when requested, run_pipeline() throws Cancelled.
+  const CancelToken* cancel = nullptr;
+  /// The memory the run may use, bytes; unset: the smallest of MemAvailable, the cgroup limit
+  /// and the address-space limit. A run whose estimated peak exceeds it throws TooLarge.
+  std::optional<std::size_t> max_memory;
 };
 
 /// Figures of one run, the content of --stats.

@@ -5,8 +5,8 @@
 #include <cstdint>
 
 #include "qjulia/base/mesh.h"
-#include "qjulia/field/params.h"
 #include "qjulia/base/progress.h"
+#include "qjulia/field/params.h"
 #include "qjulia/grid/sample.h"
 
 namespace qjulia {
@@ -21,6 +21,8 @@ struct ExtractOptions {
   ColorMode color = ColorMode::kNone;
   /// Progress in [0, 1]; return false to cancel.
   ProgressFn progress;
+  /// Checked throughout the work; when requested, the stage throws Cancelled.
+  const CancelToken* cancel = nullptr;
 };
 
 /// What extract() did besides the mesh.
