@@ -1,4 +1,4 @@
-#include "base/atomic_file.h"
+#include "qjulia/base/atomic_file.h"
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -11,7 +11,7 @@
 
 #include "qjulia/base/error.h"
 
-namespace qjulia::detail {
+namespace qjulia {
 namespace {
 
 std::string errno_text() { return std::strerror(errno); }
@@ -108,4 +108,4 @@ void BufferedWriter::flush() {
   used_ = 0;
 }
 
-}  // namespace qjulia::detail
+}  // namespace qjulia

@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "field/program.h"
 #include "qjulia/base/error.h"
 
 namespace qjulia {
@@ -23,54 +24,6 @@ namespace {
 constexpr std::size_t kMaxFormulaLength = 4096;  // characters
 constexpr int kMaxNesting = 64;   // parentheses, calls and unary minus signs inside each other
 constexpr int kMaxExponent = 64;  // |n| in h^n
-constexpr int kRegisters = 32;    // register file of eval(): h, used constants, temporaries
-
-}  // namespace
-
-/// One register operation: regs[dst] = f(regs[a], regs[b], lit). Operands are read before the
-/// destination is written, so dst may equal a or b.
-enum class OpCode : std::uint8_t {
-  kLoad,          // lit
-  kNeg,           // -a
-  kConj,          // conj(a)
-  kInv,           // inv(a)
-  kNorm,          // |a|^2
-  kAbs,           // |a|
-  kSqr,           // a*a
-  kAdd,           // a + b
-  kSub,           // a - b
-  kMul,           // a * b
-  kDiv,           // a * inv(b)
-  kAddReal,       // a + lit.w (lit real)
-  kAddLit,        // a + lit
-  kLitSub,        // lit - a
-  kScale,         // lit.w * a (lit real: a real factor commutes)
-  kMulLit,        // a * lit
-  kLitMul,        // lit * a
-  kLitDiv,        // lit * inv(a)
-  kScaleAddReal,  // lit.w * a + lit.x (both real): kScale fused with the kAddReal after it
-};
-
-struct Op {
-  OpCode code;
-  std::uint8_t dst, a, b;
-  Quat lit;
-};
-
-}  // namespace detail
-
-struct Formula::Program {
-  std::string text;
-  std::vector<std::string> constant_names;
-  std::vector<bool> used;                // per constant name
-  std::vector<std::uint8_t> used_index;  // constants copied to registers 1, 2, ...
-  std::vector<detail::Op> ops;
-  std::uint8_t result = 0;    // register holding f(h) after the ops ran
-  bool real_literals = true;  // every literal written in the text is real
-};
-
-namespace detail {
-namespace {
 
 enum class Func : int { kConj, kInv, kNorm, kAbs, kSqr };
 

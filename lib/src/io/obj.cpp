@@ -4,7 +4,7 @@
 #include <charconv>
 #include <functional>
 
-#include "base/atomic_file.h"
+#include "qjulia/base/atomic_file.h"
 #include "io/formats.h"
 
 namespace qjulia::detail {

@@ -1,7 +1,7 @@
 // PLY writer: binary little-endian, float xyz + normals, uchar sRGB colours, comments.
 #include <cstring>
 
-#include "base/atomic_file.h"
+#include "qjulia/base/atomic_file.h"
 #include "io/formats.h"
 
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,

@@ -1,7 +1,7 @@
 // Binary STL writer: 80-byte header naming qjulia and the unit, one face normal per triangle.
 #include <cstring>
 
-#include "base/atomic_file.h"
+#include "qjulia/base/atomic_file.h"
 #include "io/formats.h"
 
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,

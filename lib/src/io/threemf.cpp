@@ -5,7 +5,7 @@
 #include <cstring>
 #include <fstream>
 
-#include "base/atomic_file.h"
+#include "qjulia/base/atomic_file.h"
 #include "io/formats.h"
 #include "qjulia/base/error.h"
 

@@ -4,7 +4,7 @@
 #include <cstddef>
 #include <string>
 
-namespace qjulia::detail {
+namespace qjulia {
 
 /// A file written under a temporary name in the directory of `final_path` and renamed to
 /// `final_path` by commit(). If commit() is never reached (an exception, a failed write), the
@@ -64,4 +64,4 @@ class BufferedWriter {
   std::size_t used_ = 0;
 };
 
-}  // namespace qjulia::detail
+}  // namespace qjulia
