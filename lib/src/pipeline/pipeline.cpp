@@ -1,11 +1,10 @@
 #include "qjulia/pipeline/pipeline.h"
 
-#include <sys/resource.h>
-
 #include <chrono>
 #include <nlohmann/json.hpp>
 
 #include "qjulia/base/error.h"
+#include "qjulia/base/memory.h"
 #include "qjulia/mesh/clean.h"
 #include "qjulia/mesh/decimate.h"
 #include "qjulia/mesh/print.h"
@@ -46,12 +45,6 @@ class StageTimer {
 }  // namespace
 
 const char* version() { return QJULIA_VERSION; }
-
-std::size_t peak_rss_bytes() {
-  rusage usage{};
-  if (getrusage(RUSAGE_SELF, &usage) != 0) return 0;
-  return static_cast<std::size_t>(usage.ru_maxrss) * 1024;  // Linux reports KiB
-}
 
 PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   validate(params);

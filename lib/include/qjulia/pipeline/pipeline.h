@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "qjulia/base/memory.h"
 #include "qjulia/base/mesh.h"
 #include "qjulia/field/params.h"
 #include "qjulia/grid/sample.h"
@@ -68,9 +69,6 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts = 
 
 /// The --stats JSON of a run (DESIGN.md's keys and more).
 std::string stats_to_json(const RunStats& stats, const Params& params);
-
-/// Peak resident set size of this process so far, in bytes (0 when unknown).
-std::size_t peak_rss_bytes();
 
 /// The library version, "MAJOR.MINOR.PATCH".
 const char* version();

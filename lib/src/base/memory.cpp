@@ -1,0 +1,194 @@
+#include "qjulia/base/memory.h"
+
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include "qjulia/base/error.h"
+
+namespace qjulia {
+namespace {
+
+std::optional<std::size_t> read_number(const std::string& path) {
+  std::ifstream in(path);
+  std::string text;
+  if (!(in >> text) || text == "max") return std::nullopt;
+  try {
+    const unsigned long long v = std::stoull(text);
+    // cgroup v1 reports "no limit" as a huge page-aligned number.
+    if (v >= (1ull << 60)) return std::nullopt;
+    return static_cast<std::size_t>(v);
+  } catch (...) {
+    return std::nullopt;
+  }
+}
+
+std::optional<std::size_t> meminfo(const char* key) {
+  std::ifstream in("/proc/meminfo");
+  std::string name;
+  unsigned long long kib;
+  std::string unit;
+  while (in >> name >> kib) {
+    std::getline(in, unit);
+    if (name == key) return static_cast<std::size_t>(kib) * 1024;
+  }
+  return std::nullopt;
+}
+
+// The memory cgroup of this process: limit minus usage (v2 memory.max / memory.current, v1
+// memory.limit_in_bytes / memory.usage_in_bytes).
+std::optional<std::size_t> cgroup_room() {
+  std::ifstream in("/proc/self/cgroup");
+  std::string line;
+  std::string v2_path, v1_path;
+  bool v1 = false;
+  while (std::getline(in, line)) {
+    const auto a = line.find(':'), b = line.find(':', a + 1);
+    if (a == std::string::npos || b == std::string::npos) continue;
+    const std::string controllers = line.substr(a + 1, b - a - 1), path = line.substr(b + 1);
+    if (controllers.empty()) v2_path = path;
+    std::stringstream ss(controllers);
+    for (std::string c; std::getline(ss, c, ',');)
+      if (c == "memory") {
+        v1 = true;
+        v1_path = path;
+      }
+  }
+  std::optional<std::size_t> limit, usage;
+  if (v1) {
+    for (const std::string& dir :
+         {"/sys/fs/cgroup/memory" + v1_path, std::string("/sys/fs/cgroup/memory")}) {
+      limit = read_number(dir + "/memory.limit_in_bytes");
+      if (limit) {
+        usage = read_number(dir + "/memory.usage_in_bytes");
+        break;
+      }
+    }
+  } else {
+    const std::string dir = "/sys/fs/cgroup" + v2_path;
+    limit = read_number(dir + "/memory.max");
+    usage = read_number(dir + "/memory.current");
+  }
+  if (!limit) return std::nullopt;
+  const std::size_t used = usage.value_or(0);
+  return *limit > used ? *limit - used : 0;
+}
+
+std::optional<std::size_t> address_space_room() {
+  rlimit r{};
+  if (getrlimit(RLIMIT_AS, &r) != 0 || r.rlim_cur == RLIM_INFINITY) return std::nullopt;
+  // The address space in use now: VmSize of /proc/self/status.
+  std::size_t used = 0;
+  std::ifstream in("/proc/self/status");
+  std::string name;
+  while (in >> name) {
+    if (name == "VmSize:") {
+      unsigned long long kib = 0;
+      in >> kib;
+      used = static_cast<std::size_t>(kib) * 1024;
+      break;
+    }
+    std::string rest;
+    std::getline(in, rest);
+  }
+  const std::size_t limit = static_cast<std::size_t>(r.rlim_cur);
+  return limit > used ? limit - used : 0;
+}
+
+}  // namespace
+
+std::size_t MemoryLimits::effective() const {
+  std::size_t m = std::numeric_limits<std::size_t>::max();
+  for (const auto& v : {mem_available, cgroup, address_space, requested})
+    if (v) m = std::min(m, *v);
+  return m;
+}
+
+std::string MemoryLimits::describe() const {
+  const std::size_t m = effective();
+  if (m == std::numeric_limits<std::size_t>::max()) return "no limit";
+  const char* which = requested && *requested == m           ? "--max-memory"
+                      : address_space && *address_space == m ? "the address-space limit"
+                      : cgroup && *cgroup == m               ? "the cgroup limit"
+                                                             : "MemAvailable";
+  return format_bytes(static_cast<double>(m)) + " (" + which + ")";
+}
+
+MemoryLimits memory_limits(std::optional<std::size_t> requested) {
+  MemoryLimits l;
+  l.mem_available = meminfo("MemAvailable:");
+  l.cgroup = cgroup_room();
+  l.address_space = address_space_room();
+  l.requested = requested;
+  return l;
+}
+
+std::size_t parse_memory_size(const std::string& text, const std::string& what) {
+  auto bad = [&]() -> InvalidInput {
+    return InvalidInput(what +
+                        ": expected a size such as 4G, 512M or 1.5GiB (K, M, G, T = 2^10, "
+                        "2^20, 2^30, 2^40 bytes; at least 1M), got '" +
+                        text + "'");
+  };
+  std::size_t pos = 0;
+  double value = 0;
+  try {
+    value = std::stod(text, &pos);
+  } catch (...) {
+    throw bad();
+  }
+  if (!std::isfinite(value) || value < 0 || text.empty() || !(text[0] >= '0' && text[0] <= '9'))
+    throw bad();
+  std::string unit = text.substr(pos);
+  double scale = 1;
+  if (!unit.empty()) {
+    const char u = static_cast<char>(std::toupper(static_cast<unsigned char>(unit[0])));
+    const std::string rest = unit.substr(1);
+    const int power = u == 'K' ? 1 : u == 'M' ? 2 : u == 'G' ? 3 : u == 'T' ? 4 : u == 'B' ? 0 : -1;
+    if (power < 0) throw bad();
+    if (u == 'B' ? !rest.empty() : !(rest.empty() || rest == "B" || rest == "iB" || rest == "b"))
+      throw bad();
+    scale = std::ldexp(1.0, 10 * power);
+  }
+  const double bytes = value * scale;
+  if (bytes < 1048576.0 || bytes > 9.0e18) throw bad();
+  return static_cast<std::size_t>(bytes);
+}
+
+std::string format_bytes(double bytes) {
+  static const char* const units[] = {"B", "KiB", "MiB", "GiB", "TiB", "PiB"};
+  int u = 0;
+  while (bytes >= 1024 && u < 5) {
+    bytes /= 1024;
+    ++u;
+  }
+  char buf[32];
+  std::snprintf(buf, sizeof buf,
+                u == 0       ? "%.0f %s"
+                : bytes < 10 ? "%.2f %s"
+                             : "%.1f %s",
+                bytes, units[u]);
+  return buf;
+}
+
+std::size_t peak_rss_bytes() {
+  rusage usage{};
+  if (getrusage(RUSAGE_SELF, &usage) != 0) return 0;
+  return static_cast<std::size_t>(usage.ru_maxrss) * 1024;  // Linux reports KiB
+}
+
+std::size_t current_rss_bytes() {
+  std::ifstream in("/proc/self/statm");
+  unsigned long long pages_total = 0, pages_resident = 0;
+  if (!(in >> pages_total >> pages_resident)) return 0;
+  return static_cast<std::size_t>(pages_resident) * static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+}
+
+}  // namespace qjulia
