@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include "field/kernel.h"
+#include "field/program.h"
 #include "qjulia/base/error.h"
 #include "qjulia/grid/sample.h"
 
@@ -49,7 +51,63 @@ Classifier::Classifier(const Params& params) : params_(params) {
     throw InvalidInput("parameters: at most " + std::to_string(kMaxConstants) + " constants");
   formula_ = Formula::compile(params_.formula, names);
   slice_ = params_.slice.resolved();
+
+  const Formula::Program& program = formula_.program();
+  const int n_ops = static_cast<int>(program.ops.size());
+  if (detail::kernel_target() != "scalar" && detail::kernel_supports(program.ops.data(), n_ops)) {
+    auto k = std::make_shared<detail::KernelSetup>();
+    k->ops = program.ops.data();
+    k->op_count = n_ops;
+    k->result = program.result;
+    int top = program.result + 1;
+    for (const detail::Op& op : program.ops) top = std::max({top, op.dst + 1, op.a + 1, op.b + 1});
+    top = std::max(top, 1 + static_cast<int>(program.used_index.size()));
+    k->registers = top;
+    for (std::size_t u = 0; u < program.used_index.size(); ++u) {
+      const int constant = program.used_index[u];
+      k->init[1 + u] = constants_[constant];
+      k->uniform[1 + u] = constant != c_index_;
+      if (constant == c_index_) k->c_register = static_cast<int>(1 + u);
+    }
+    k->mandelbrot = c_index_ >= 0;
+    k->start = params_.start;
+    k->origin = slice_.origin;
+    for (int a = 0; a < 3; ++a) k->dir[a] = slice_.directions[a];
+    k->escape = params_.method == Method::kEscape;
+    k->iterations = params_.iterations;
+    k->r2 = params_.bailout * params_.bailout;
+    k->log_r = std::log(params_.bailout);
+    detail::prepare_kernel(*k);
+    kernel_ = std::move(k);
+  }
 }
+
+std::uint64_t Classifier::field(const double* x, const double* y, const double* z, std::size_t n,
+                                float* out) const {
+  if (kernel_) {
+    // In blocks, through a double buffer on the stack.
+    constexpr std::size_t kBlock = 1024;
+    double f[kBlock];
+    std::uint64_t steps = 0;
+    for (std::size_t i = 0; i < n; i += kBlock) {
+      const std::size_t m = std::min(kBlock, n - i);
+      steps += detail::kernel_field(*kernel_, x + i, y + i, z + i, m, f);
+      for (std::size_t j = 0; j < m; ++j) out[i + j] = static_cast<float>(f[j]);
+    }
+    return steps;
+  }
+  std::uint64_t steps = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Orbit o = orbit(x[i], y[i], z[i]);
+    out[i] = o.field;
+    steps += o.exit_step >= 0 ? o.exit_step : params_.iterations;
+  }
+  return steps;
+}
+
+const detail::KernelSetup* Classifier::kernel() const { return kernel_.get(); }
+
+std::string Classifier::evaluator() const { return kernel_ ? detail::kernel_target() : "scalar"; }
 
 Quat Classifier::to_quaternion(double x, double y, double z) const {
   return slice_.origin + x * slice_.directions[0] + y * slice_.directions[1] +
@@ -158,6 +216,44 @@ std::optional<float> Solid::excluded_field(double x, double y, double z) const {
   const double c = constraint(x, y, z) / voxel_;
   if (c > 0) return static_cast<float>(std::max(c, 1e-6));
   return std::nullopt;
+}
+
+std::uint64_t Solid::field(const double* x, const double* y, const double* z, std::size_t n,
+                           float* out) const {
+  if (!has_clip()) {
+    // Points of the grid are inside the box: only callers with points outside need the
+    // constraint, and they are the refinement, which asks point by point near the walls.
+    bool all_in_box = true;
+    for (std::size_t i = 0; i < n && all_in_box; ++i)
+      all_in_box = constraint(x[i], y[i], z[i]) <= 0;
+    if (all_in_box) {
+      const std::uint64_t steps = classifier_.field(x, y, z, n, out);
+      for (std::size_t i = 0; i < n; ++i)
+        out[i] = std::max(out[i], static_cast<float>(constraint(x[i], y[i], z[i]) / voxel_));
+      return steps;
+    }
+  }
+  // Evaluate the points the constraints keep, then combine.
+  std::vector<double> cx, cy, cz;
+  std::vector<std::size_t> where;
+  std::vector<double> c(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    c[i] = constraint(x[i], y[i], z[i]) / voxel_;
+    if (c[i] > 0) {
+      out[i] = static_cast<float>(std::max(c[i], 1e-6));
+    } else {
+      where.push_back(i);
+      cx.push_back(x[i]);
+      cy.push_back(y[i]);
+      cz.push_back(z[i]);
+    }
+  }
+  std::vector<float> f(where.size());
+  const std::uint64_t steps =
+      classifier_.field(cx.data(), cy.data(), cz.data(), where.size(), f.data());
+  for (std::size_t j = 0; j < where.size(); ++j)
+    out[where[j]] = std::max(f[j], static_cast<float>(c[where[j]]));
+  return steps;
 }
 
 float Solid::field(double x, double y, double z) const {

@@ -68,7 +68,9 @@ class Formula {
   /// Number of register operations one eval() runs (h^3 takes 2; literal-only parts fold to 0).
   std::size_t operation_count() const;
 
-  struct Program;  ///< the compiled form (internal)
+  struct Program;  ///< the compiled form (internal: lib/src/field/program.h)
+  /// The compiled program, for the evaluators.
+  const Program& program() const { return *program_; }
 
  private:
   std::shared_ptr<const Program> program_;

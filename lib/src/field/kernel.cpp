@@ -1,0 +1,1058 @@
+// The vector kernel of kernel.h, compiled once per Highway target (AVX-512 and AVX2) and
+// dispatched at run time.
+//
+// Up to M orbits are in flight, one per lane, stored as structure-of-arrays. A sweep advances
+// every orbit by one step: each operation of the program runs over all M lanes in a tight loop
+// (the dispatch is paid once per operation, not per vector), then one pass computes the metric
+// of the new iterates and marks the lanes whose orbit has decided. Those lanes are retired into
+// a buffer of finished orbits and refilled at once with the next waiting points (an expanding
+// load on AVX-512), so the vectors stay full. F is computed for the finished orbits in bulk.
+#include "field/kernel.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <memory>
+#include <vector>
+
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "field/kernel.cpp"
+// AVX2 is the baseline of the vector path, AVX-512 where the CPU has it; without AVX2 the
+// scalar classifier runs. The 128-bit targets would only add compile time.
+#ifndef HWY_DISABLED_TARGETS
+#define HWY_DISABLED_TARGETS (HWY_SSSE3 | HWY_SSE4 | HWY_AVX3_DL)
+#endif
+#include "hwy/contrib/math/math-inl.h"
+#include "hwy/foreach_target.h"  // IWYU pragma: keep
+#include "hwy/highway.h"
+
+#ifndef QJULIA_FIELD_KERNEL_ONCE
+#define QJULIA_FIELD_KERNEL_ONCE
+namespace qjulia::detail {
+// F is clamped to +-kFieldLimit (as in the scalar classifier), so poles stay finite.
+constexpr double kFieldLimit = 1e6;
+// Most orbits in flight; fewer for programs with many registers, so the lanes stay in L1.
+constexpr std::size_t kMaxInFlight = 256;
+// Finished orbits buffered before their F is computed.
+constexpr std::size_t kFinished = 1024;
+// Sweeps between retirements of decided orbits.
+constexpr std::uint64_t kRetireEvery = 2;
+// Storage slots: one per register of the program.
+constexpr int kSlots = kRegisters;
+}  // namespace qjulia::detail
+#endif
+
+HWY_BEFORE_NAMESPACE();
+namespace qjulia::detail {
+namespace HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+using D = hn::ScalableTag<double>;
+using V = hn::Vec<D>;
+using M = hn::Mask<D>;
+
+struct Q {
+  V w, x, y, z;
+};
+
+HWY_INLINE Q broadcast(const Quat& q) {
+  const D d;
+  return {hn::Set(d, q.w), hn::Set(d, q.x), hn::Set(d, q.y), hn::Set(d, q.z)};
+}
+HWY_INLINE V norm2(const Q& a) {
+  return hn::MulAdd(a.z, a.z, hn::MulAdd(a.y, a.y, hn::MulAdd(a.x, a.x, hn::Mul(a.w, a.w))));
+}
+HWY_INLINE Q add(const Q& a, const Q& b) {
+  return {hn::Add(a.w, b.w), hn::Add(a.x, b.x), hn::Add(a.y, b.y), hn::Add(a.z, b.z)};
+}
+HWY_INLINE Q sub(const Q& a, const Q& b) {
+  return {hn::Sub(a.w, b.w), hn::Sub(a.x, b.x), hn::Sub(a.y, b.y), hn::Sub(a.z, b.z)};
+}
+HWY_INLINE Q scale(V s, const Q& a) {
+  return {hn::Mul(s, a.w), hn::Mul(s, a.x), hn::Mul(s, a.y), hn::Mul(s, a.z)};
+}
+// Hamilton product.
+HWY_INLINE Q mul(const Q& a, const Q& b) {
+  return {
+      hn::NegMulAdd(a.z, b.z, hn::NegMulAdd(a.y, b.y, hn::NegMulAdd(a.x, b.x, hn::Mul(a.w, b.w)))),
+      hn::NegMulAdd(a.z, b.y, hn::MulAdd(a.y, b.z, hn::MulAdd(a.x, b.w, hn::Mul(a.w, b.x)))),
+      hn::MulAdd(a.z, b.x, hn::MulAdd(a.y, b.w, hn::NegMulAdd(a.x, b.z, hn::Mul(a.w, b.y)))),
+      hn::MulAdd(a.z, b.w, hn::NegMulAdd(a.y, b.x, hn::MulAdd(a.x, b.y, hn::Mul(a.w, b.z))))};
+}
+HWY_INLINE Q sqr(const Q& a) {
+  const V t = hn::Add(a.w, a.w);
+  return {
+      hn::NegMulAdd(a.z, a.z, hn::NegMulAdd(a.y, a.y, hn::NegMulAdd(a.x, a.x, hn::Mul(a.w, a.w)))),
+      hn::Mul(t, a.x), hn::Mul(t, a.y), hn::Mul(t, a.z)};
+}
+// conj(a) / |a|^2; a zero quaternion gives non-finite components, as in the scalar path.
+HWY_INLINE Q inv(const Q& a) {
+  const D d;
+  const V r = hn::Div(hn::Set(d, 1.0), norm2(a));
+  return {hn::Mul(a.w, r), hn::Neg(hn::Mul(a.x, r)), hn::Neg(hn::Mul(a.y, r)),
+          hn::Neg(hn::Mul(a.z, r))};
+}
+
+// The lanes of a register: four component arrays.
+struct Slot {
+  double* c[4];
+  HWY_INLINE Q load(std::size_t o) const {
+    const D d;
+    return {hn::Load(d, c[0] + o), hn::Load(d, c[1] + o), hn::Load(d, c[2] + o),
+            hn::Load(d, c[3] + o)};
+  }
+  HWY_INLINE void store(std::size_t o, const Q& q) const {
+    const D d;
+    hn::Store(q.w, d, c[0] + o);
+    hn::Store(q.x, d, c[1] + o);
+    hn::Store(q.y, d, c[2] + o);
+    hn::Store(q.z, d, c[3] + o);
+  }
+};
+
+// Writes the lanes of v selected by m to p consecutively and returns how many; the lanes after
+// them are overwritten with garbage (the caller writes there later). The register form of the
+// AVX-512 compress: its memory form is slow on Intel cores.
+HWY_INLINE std::size_t compress_store(V v, M m, double* p) {
+  const D d;
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+  hn::StoreU(V{_mm512_maskz_compress_pd(m.raw, v.raw)}, d, p);
+#else
+  hn::StoreU(hn::Compress(v, m), d, p);
+#endif
+  return hn::CountTrue(d, m);
+}
+
+// 1 / x to full double precision without a division: the 14-bit reciprocal estimate and two
+// Newton steps (vdivpd is slow; F needs a few reciprocals per point).
+HWY_INLINE V reciprocal(V x) {
+  const D d;
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+  const V one = hn::Set(d, 1.0);
+  V r{_mm512_rcp14_pd(x.raw)};
+  r = hn::MulAdd(r, hn::NegMulAdd(x, r, one), r);
+  r = hn::MulAdd(r, hn::NegMulAdd(x, r, one), r);
+  // A third step makes it correctly rounded nearly always; infinities and zeros pass through
+  // the estimate unchanged in the cases F meets (1/inf = 0 is masked by the callers).
+  return hn::MulAdd(r, hn::NegMulAdd(x, r, one), r);
+#else
+  return hn::Div(hn::Set(d, 1.0), x);
+#endif
+}
+
+// a / (a + b) for a > 0, b >= 0, either possibly infinite (the fractional part of F).
+HWY_INLINE V frac(V a, V b) {
+  const D d;
+  const auto ia = hn::IsInf(a), ib = hn::IsInf(b);
+  V r = hn::Mul(a, reciprocal(hn::Add(a, b)));
+  r = hn::IfThenElse(ib, hn::Zero(d), r);
+  return hn::IfThenElse(ia, hn::IfThenElse(ib, hn::Set(d, 0.5), hn::Set(d, 1.0)), r);
+}
+
+// The natural logarithm of m > 0 (finite, not subnormal): musl's method as in Highway's Log,
+// with the one division replaced by a reciprocal.
+HWY_INLINE V log_normal(V x) {
+  const D d;
+  const hn::RebindToSigned<D> di;
+  const hn::RebindToUnsigned<D> du;
+  const V one = hn::Set(d, 1.0);
+  const auto exp_bits =
+      hn::Add(hn::BitCast(di, x), hn::Set(di, 0x3FF0000000000000LL - 0x3FE6A09E00000000LL));
+  const V e = hn::ConvertTo(
+      d,
+      hn::Sub(hn::BitCast(di, hn::ShiftRight<52>(hn::BitCast(du, exp_bits))), hn::Set(di, 0x3FF)));
+  const V y = hn::Or(hn::And(x, hn::BitCast(d, hn::Set(di, 0xFFFFFFFFLL))),
+                     hn::BitCast(d, hn::Add(hn::And(exp_bits, hn::Set(di, 0xFFFFF00000000LL)),
+                                            hn::Set(di, 0x3FE6A09E00000000LL))));
+  const V ym1 = hn::Sub(y, one);
+  const V z = hn::Mul(ym1, reciprocal(hn::Add(y, one)));
+  const V z2 = hn::Mul(z, z), z4 = hn::Mul(z2, z2);
+  const V poly = hn::MulAdd(hn::MulAdd(hn::MulAdd(hn::MulAdd(hn::Set(d, 0.1479819860511658591), z4,
+                                                             hn::Set(d, 0.1818357216161805012)),
+                                                  z4, hn::Set(d, 0.2857142874366239149)),
+                                       z4, hn::Set(d, 0.6666666666666735130)),
+                            z2,
+                            hn::Mul(hn::MulAdd(hn::MulAdd(hn::Set(d, 0.1531383769920937332), z4,
+                                                          hn::Set(d, 0.2222219843214978396)),
+                                               z4, hn::Set(d, 0.3999999999940941908)),
+                                    z4));
+  return hn::MulSub(
+      e, hn::Set(d, 0.693147180369123816490),
+      hn::Sub(hn::MulSub(z, hn::Sub(ym1, poly), hn::Mul(e, hn::Set(d, 1.90821492927058770002e-10))),
+              ym1));
+}
+
+// log(sqrt(m) / R) = 0.5 log m - log R; +inf for non-finite m, -inf for m = 0.
+HWY_INLINE V half_log_ratio(V m, double log_r) {
+  const D d;
+  const V inf = hn::Set(d, std::numeric_limits<double>::infinity());
+  const auto finite = hn::IsFinite(m);
+  const auto positive = hn::Gt(m, hn::Zero(d));
+  const auto normal = hn::Ge(m, hn::Set(d, std::numeric_limits<double>::min()));
+  const V safe = hn::IfThenElse(hn::And(finite, normal), m, hn::Set(d, 1.0));
+  V l = log_normal(safe);
+  if (HWY_UNLIKELY(!hn::AllTrue(d, hn::Or(normal, hn::Not(positive)))))
+    l = hn::IfThenElse(normal, l, hn::Log(d, hn::IfThenElse(positive, m, hn::Set(d, 1.0))));
+  l = hn::Sub(hn::Mul(hn::Set(d, 0.5), l), hn::Set(d, log_r));
+  return hn::IfThenElse(finite, hn::IfThenElse(positive, l, hn::Neg(inf)), inf);
+}
+
+// F of decided orbits from their code (exit / convergence step, -1 never, -2 pole), metric a
+// and previous metric b: the formulas of the scalar classifier, lane by lane.
+HWY_INLINE V field_of(const KernelSetup& s, V k, V a, V b) {
+  const D d;
+  const V big = hn::Set(d, kFieldLimit), nbig = hn::Set(d, -kFieldLimit);
+  const V iters = hn::Set(d, s.iterations), one = hn::Set(d, 1.0);
+  const V sa = half_log_ratio(a, s.log_r), sb = half_log_ratio(b, s.log_r);
+  V f;
+  if (s.escape) {
+    // step 0: N + frac(s, 1); step n: (N - n) + frac(s_n, -s_(n-1)) with s_(n-1) taken as -1
+    // when h_(n-1) = 0; never: s_N.
+    const V sprev = hn::IfThenElse(hn::Gt(b, hn::Zero(d)), sb, hn::Set(d, -1.0));
+    const V at0 = hn::Add(iters, frac(sa, one));
+    const V atn = hn::Add(hn::Sub(iters, k), frac(sa, hn::Neg(sprev)));
+    f = hn::IfThenElse(hn::Eq(k, hn::Zero(d)), at0, atn);
+    f = hn::IfThenElse(hn::Lt(k, hn::Zero(d)), sa, f);
+  } else {
+    // step 1: (N - 1) + frac(-t, 1); step n: (N - n) + frac(-t_n, t_(n-1)); never: -t_N;
+    // pole: -limit.
+    const V nt = hn::Neg(sa);
+    const V at1 = hn::Add(hn::Sub(iters, one), frac(nt, one));
+    const V atn = hn::Add(hn::Sub(iters, k), frac(nt, sb));
+    f = hn::IfThenElse(hn::Eq(k, one), at1, atn);
+    f = hn::IfThenElse(hn::Eq(k, hn::Set(d, -1.0)), nt, f);
+    f = hn::IfThenElse(hn::Eq(k, hn::Set(d, -2.0)), nbig, f);
+  }
+  return hn::IfThenElse(hn::IsNaN(f), big, hn::Min(big, hn::Max(nbig, f)));
+}
+
+class Machine {
+ public:
+  std::uint64_t run(const KernelSetup& s, const double* x, const double* y, const double* z,
+                    std::size_t n, double* out) {
+    s_ = &s;
+    out_ = out;
+    steps_ = 0;
+    fcount_ = 0;
+    const std::size_t nl = hn::Lanes(D());
+    // Lanes in flight: fewer for programs with many registers, never more than the points.
+    lanes_ = s.registers <= 5    ? kMaxInFlight
+             : s.registers <= 10 ? kMaxInFlight / 2
+                                 : kMaxInFlight / 4;
+    lanes_ = std::min(lanes_, (n + nl - 1) / nl * nl);
+    setup_slots();
+    queue(x, y, z, n);
+    if (single_op()) {
+      run_single_op();
+    } else {
+      start();
+      while (live_ > 0) sweep();
+    }
+    flush();
+    return steps_;
+  }
+
+ private:
+  // Storage for the registers: h in slot 0 and a spare (they swap after every step when the
+  // result is a temporary), c in its register's slot, uniform constants broadcast once.
+  void setup_slots() {
+    const std::size_t stride = kMaxInFlight + 8;
+    if (storage_.empty()) storage_.resize(static_cast<std::size_t>(kSlots) * 4 * stride + 8);
+    double* base = storage_.data();
+    base += (64 - reinterpret_cast<std::uintptr_t>(base) % 64) % 64 / sizeof(double);
+    for (int r = 0; r < kSlots; ++r)
+      for (int c = 0; c < 4; ++c)
+        slot_[r].c[c] = base + (static_cast<std::size_t>(r) * 4 + c) * stride;
+    for (int r = 1; r < s_->registers; ++r)
+      if (s_->uniform[r])
+        for (int c = 0; c < 4; ++c) std::fill_n(slot_[r].c[c], lanes_, s_->init[r][c]);
+    result_is_temp_ = s_->result != 0 && s_->result != s_->c_register && !s_->uniform[s_->result];
+  }
+
+  // The points into the queue: h0 (and c in Mandelbrot mode) by the slice; an escape orbit
+  // that starts outside the ball has decided at step 0.
+  void queue(const double* x, const double* y, const double* z, std::size_t n) {
+    const D d;
+    const std::size_t nl = hn::Lanes(d);
+    const bool with_c = s_->c_register >= 0;
+    for (int c = 0; c < 4; ++c) {
+      qh_[c].resize(n + nl);
+      if (with_c) qc_[c].resize(n + nl);
+    }
+    qidx_.resize(n + nl);
+    qprev_.resize(n + nl);
+    queued_ = taken_ = 0;
+    const Q o = broadcast(s_->origin), d0 = broadcast(s_->dir[0]), d1 = broadcast(s_->dir[1]),
+            d2 = broadcast(s_->dir[2]), start = broadcast(s_->start);
+    HWY_ALIGN double lane_index[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+    const V iota = hn::Load(d, lane_index);
+    const V inf = hn::Set(d, std::numeric_limits<double>::infinity());
+    for (std::size_t i = 0; i < n; i += nl) {
+      const std::size_t m = std::min(nl, n - i);
+      V vx, vy, vz;
+      if (m == nl) {
+        vx = hn::LoadU(d, x + i);
+        vy = hn::LoadU(d, y + i);
+        vz = hn::LoadU(d, z + i);
+      } else {
+        HWY_ALIGN double bx[8] = {}, by[8] = {}, bz[8] = {};
+        std::copy_n(x + i, m, bx);
+        std::copy_n(y + i, m, by);
+        std::copy_n(z + i, m, bz);
+        vx = hn::Load(d, bx);
+        vy = hn::Load(d, by);
+        vz = hn::Load(d, bz);
+      }
+      auto comp = [&](V ow, V a, V b, V c) {
+        return hn::MulAdd(vz, c, hn::MulAdd(vy, b, hn::MulAdd(vx, a, ow)));
+      };
+      const Q q = {comp(o.w, d0.w, d1.w, d2.w), comp(o.x, d0.x, d1.x, d2.x),
+                   comp(o.y, d0.y, d1.y, d2.y), comp(o.z, d0.z, d1.z, d2.z)};
+      const Q h = s_->mandelbrot ? start : q;
+      const V idx = hn::Add(iota, hn::Set(d, static_cast<double>(i)));
+      M valid = hn::FirstN(d, m);
+      V prev = inf;  // cut-off: no step before the first
+      if (s_->escape) {
+        prev = norm2(h);
+        const M outside = hn::And(valid, hn::Gt(prev, hn::Set(d, s_->r2)));
+        if (!hn::AllFalse(d, outside)) {
+          finished(outside, hn::Zero(d), prev, prev, idx);
+          valid = hn::AndNot(outside, valid);
+        }
+      }
+      const std::size_t at = queued_;
+      auto put = [&](V v, std::vector<double>& to) {
+        if (m == nl && hn::AllTrue(d, valid))
+          hn::StoreU(v, d, to.data() + at);
+        else
+          compress_store(v, valid, to.data() + at);
+      };
+      put(h.w, qh_[0]);
+      put(h.x, qh_[1]);
+      put(h.y, qh_[2]);
+      put(h.z, qh_[3]);
+      if (with_c) {
+        put(q.w, qc_[0]);
+        put(q.x, qc_[1]);
+        put(q.y, qc_[2]);
+        put(q.z, qc_[3]);
+      }
+      put(prev, qprev_);
+      put(idx, qidx_);
+      queued_ += hn::CountTrue(d, valid);
+    }
+  }
+
+  // Fills the lanes from the queue; lanes beyond it are idle.
+  void start() {
+    const std::size_t take = std::min(lanes_, queued_);
+    for (int c = 0; c < 4; ++c) {
+      std::copy_n(qh_[c].data(), take, slot_[0].c[c]);
+      std::fill(slot_[0].c[c] + take, slot_[0].c[c] + lanes_, 0.0);
+      if (s_->c_register >= 0) {
+        std::copy_n(qc_[c].data(), take, slot_[s_->c_register].c[c]);
+        std::fill(slot_[s_->c_register].c[c] + take, slot_[s_->c_register].c[c] + lanes_, 0.0);
+      }
+    }
+    std::copy_n(qprev_.data(), take, prev_);
+    std::copy_n(qidx_.data(), take, idx_);
+    std::fill(start_, start_ + lanes_, 0.0);
+    std::fill(pending_, pending_ + lanes_, 0.0);
+    std::fill(frozen_, frozen_ + lanes_, 0.0);
+    for (std::size_t i = take; i < lanes_; ++i) set_bits(frozen_[i]);
+    taken_ = take;
+    live_ = take;
+    sweeps_ = 0;
+  }
+
+  static void set_bits(double& v) { std::memset(&v, 0xff, sizeof v); }
+
+  // One step of every orbit in flight; every few sweeps, retirement and refill.
+  void sweep() {
+    ++sweeps_;
+    for (const KernelOp& op : s_->kops) apply(op);
+    const Slot next = slot_[s_->result];
+    check(next);
+    // The new iterates become h: by swapping storage when the result is a temporary (the next
+    // sweep writes it before reading it), else they were copied into h by check().
+    if (result_is_temp_) std::swap(slot_[0], slot_[s_->result]);
+    std::swap(prev_, metric_);
+    // Decided lanes wait (frozen, computing on) until the next retirement: retiring in bulk
+    // every kRetireEvery sweeps costs less than the steps the waiting lanes lose.
+    if (sweeps_ % kRetireEvery == 0 || queued_ == taken_) retire_all();
+  }
+
+  // The metric of every new iterate; lanes whose orbit decided keep what F needs (step code,
+  // metric, previous metric) and freeze until they are retired.
+  void check(const Slot& next) {
+    const D d;
+    const std::size_t nl = hn::Lanes(d);
+    const Slot& h = slot_[0];
+    const V r2 = hn::Set(d, s_->r2), iters = hn::Set(d, s_->iterations);
+    const V g = hn::Set(d, static_cast<double>(sweeps_));
+    for (std::size_t o = 0; o < lanes_; o += nl) {
+      const Q q = next.load(o);
+      V metric;
+      M exit;
+      if (s_->escape) {
+        metric = norm2(q);
+        exit = hn::Not(hn::Le(metric, r2));  // NaN and inf leave too
+      } else {
+        metric = norm2(sub(q, h.load(o)));
+        // Converged, or a pole or an overflow (a large step that never converges).
+        exit = hn::Or(hn::Not(hn::Ge(metric, r2)), hn::Not(hn::IsFinite(metric)));
+      }
+      if (!result_is_temp_ && s_->result != 0) h.store(o, q);
+      hn::Store(metric, d, metric_ + o);
+      const V k = hn::Sub(g, hn::Load(d, start_ + o));
+      const M open = hn::Not(hn::MaskFromVec(hn::Load(d, frozen_ + o)));
+      const M now = hn::And(open, hn::Or(exit, hn::Eq(k, iters)));
+      if (hn::AllFalse(d, now)) continue;
+      V code = hn::IfThenElse(exit, k, hn::Set(d, -1.0));
+      if (!s_->escape) code = hn::IfThenElse(hn::IsFinite(metric), code, hn::Set(d, -2.0));
+      hn::BlendedStore(code, now, d, cap_code_ + o);
+      hn::BlendedStore(metric, now, d, cap_a_ + o);
+      hn::BlendedStore(hn::Load(d, prev_ + o), now, d, cap_b_ + o);
+      const V all = hn::VecFromMask(d, now);
+      hn::Store(hn::Or(all, hn::Load(d, frozen_ + o)), d, frozen_ + o);
+      hn::Store(hn::Or(all, hn::Load(d, pending_ + o)), d, pending_ + o);
+      any_pending_ = true;
+    }
+  }
+
+  // A program that is one square of h plus an addition (h^2 + c in Julia and Mandelbrot
+  // mode, h^2): run_single_op() keeps every orbit's state in registers for many steps.
+  bool single_op() const {
+    if (s_->kops.size() != 1) return false;
+    const KernelOp& op = s_->kops[0];
+    return op.code == OpCode::kSqr && op.a == 0 && op.dst == s_->result &&
+           (op.add != 2 || (op.add_reg == s_->c_register && s_->c_register > 0));
+  }
+
+  // The orbits of a single-operation program, a group of kGroup vectors at a time with h, the
+  // previous metric, the step and the masks in registers; a group returns to memory (and its
+  // decided lanes are retired and refilled) when a quarter of its lanes have decided, or
+  // after kRun steps.
+  void run_single_op() {
+    const int add = s_->kops[0].add;
+    if (s_->escape) {
+      if (add == 0) run_single_op<0, true>();
+      if (add == 1) run_single_op<1, true>();
+      if (add == 2) run_single_op<2, true>();
+      if (add == 3) run_single_op<3, true>();
+    } else {
+      if (add == 0) run_single_op<0, false>();
+      if (add == 1) run_single_op<1, false>();
+      if (add == 2) run_single_op<2, false>();
+      if (add == 3) run_single_op<3, false>();
+    }
+  }
+
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+  // AVX-512: every orbit's state stays in registers for the whole batch; a decided lane is
+  // written to the finished buffer (compressing stores) and refilled with the next waiting
+  // point in the same step (expanding loads), so no lane ever waits.
+  template <int kAdd, bool kEscape>
+  HWY_NOINLINE void run_single_op() {
+    constexpr std::size_t kGroup = kAdd == 2 ? 2 : 4;  // c of each lane needs registers too
+    const D d;
+    const KernelOp& op = s_->kops[0];
+    const Q lit = broadcast(op.add_lit);
+    const V r2 = hn::Set(d, s_->r2), iters = hn::Set(d, s_->iterations), one = hn::Set(d, 1.0);
+    const V minus1 = hn::Set(d, -1.0), minus2 = hn::Set(d, -2.0), zero = hn::Zero(d);
+    Q h[kGroup], c[kGroup];
+    V prev[kGroup], k[kGroup], idx[kGroup];
+    __mmask8 live[kGroup];
+    const double* qh[4] = {qh_[0].data(), qh_[1].data(), qh_[2].data(), qh_[3].data()};
+    const double* qc[4] = {};
+    if (kAdd == 2)
+      for (int i = 0; i < 4; ++i) qc[i] = qc_[i].data();
+    // Loads the next waiting points into the lanes of `want` (as many as are left); returns
+    // the lanes filled.
+    auto load = [&](std::size_t g, __mmask8 want) -> __mmask8 {
+      const std::size_t left = queued_ - taken_;
+      __mmask8 m = want;
+      if (static_cast<std::size_t>(__builtin_popcount(want)) > left)
+        m = static_cast<__mmask8>(_pdep_u32((1u << left) - 1, want));
+      if (m == 0) return 0;
+      h[g].w = V{_mm512_mask_expandloadu_pd(h[g].w.raw, m, qh[0] + taken_)};
+      h[g].x = V{_mm512_mask_expandloadu_pd(h[g].x.raw, m, qh[1] + taken_)};
+      h[g].y = V{_mm512_mask_expandloadu_pd(h[g].y.raw, m, qh[2] + taken_)};
+      h[g].z = V{_mm512_mask_expandloadu_pd(h[g].z.raw, m, qh[3] + taken_)};
+      if (kAdd == 2) {
+        c[g].w = V{_mm512_mask_expandloadu_pd(c[g].w.raw, m, qc[0] + taken_)};
+        c[g].x = V{_mm512_mask_expandloadu_pd(c[g].x.raw, m, qc[1] + taken_)};
+        c[g].y = V{_mm512_mask_expandloadu_pd(c[g].y.raw, m, qc[2] + taken_)};
+        c[g].z = V{_mm512_mask_expandloadu_pd(c[g].z.raw, m, qc[3] + taken_)};
+      }
+      prev[g] = V{_mm512_mask_expandloadu_pd(prev[g].raw, m, qprev_.data() + taken_)};
+      idx[g] = V{_mm512_mask_expandloadu_pd(idx[g].raw, m, qidx_.data() + taken_)};
+      k[g] = V{_mm512_mask_mov_pd(k[g].raw, m, zero.raw)};
+      taken_ += static_cast<std::size_t>(__builtin_popcount(m));
+      return m;
+    };
+    for (std::size_t g = 0; g < kGroup; ++g) {
+      h[g] = c[g] = {zero, zero, zero, zero};
+      prev[g] = k[g] = idx[g] = zero;
+      live[g] = load(g, 0xff);
+    }
+    for (;;) {
+      bool any = false;
+#pragma GCC unroll 4
+      for (std::size_t g = 0; g < kGroup; ++g) {
+        if (!live[g]) continue;
+        any = true;
+        Q q = sqr(h[g]);
+        if (kAdd == 1) q = add(q, lit);
+        if (kAdd == 2) q = add(q, c[g]);
+        if (kAdd == 3) q.w = hn::Add(q.w, lit.w);
+        V metric;
+        M exit;
+        if (kEscape) {
+          metric = norm2(q);
+          exit = hn::Not(hn::Le(metric, r2));
+        } else {
+          metric = norm2(sub(q, h[g]));
+          exit = hn::Or(hn::Not(hn::Ge(metric, r2)), hn::Not(hn::IsFinite(metric)));
+        }
+        k[g] = hn::Add(k[g], one);
+        const __mmask8 now = live[g] & hn::Or(exit, hn::Eq(k[g], iters)).raw;
+        h[g] = q;
+        if (HWY_UNLIKELY(now != 0)) {
+          V code = hn::IfThenElse(exit, k[g], minus1);
+          if (!kEscape) code = hn::IfThenElse(hn::IsFinite(metric), code, minus2);
+          const M m{now};
+          finished(m, code, metric, prev[g], idx[g]);
+          prev[g] = metric;
+          // Lanes the queue cannot refill idle on zeros.
+          const __mmask8 filled = load(g, now);
+          const __mmask8 idle = now & static_cast<__mmask8>(~filled);
+          if (idle) {
+            live[g] &= static_cast<__mmask8>(~idle);
+            h[g] = {V{_mm512_mask_mov_pd(h[g].w.raw, idle, zero.raw)},
+                    V{_mm512_mask_mov_pd(h[g].x.raw, idle, zero.raw)},
+                    V{_mm512_mask_mov_pd(h[g].y.raw, idle, zero.raw)},
+                    V{_mm512_mask_mov_pd(h[g].z.raw, idle, zero.raw)}};
+          }
+        } else {
+          prev[g] = metric;
+        }
+      }
+      if (!any) break;
+    }
+    live_ = 0;
+  }
+#else
+  template <int kAdd, bool kEscape>
+  HWY_NOINLINE void run_single_op() {
+    start();
+    constexpr std::size_t kGroup = 4;
+    constexpr int kRun = 64;
+    const D d;
+    const std::size_t nl = hn::Lanes(d);
+    const std::size_t width = kGroup * nl;
+    const KernelOp& op = s_->kops[0];
+    const Q lit = broadcast(op.add_lit);
+    const Slot c = slot_[op.add_reg];
+    const V r2 = hn::Set(d, s_->r2), iters = hn::Set(d, s_->iterations), one = hn::Set(d, 1.0);
+    const V minus1 = hn::Set(d, -1.0), minus2 = hn::Set(d, -2.0), zero = hn::Zero(d);
+    // The step of each lane (start_ holds it here, not a sweep number).
+    std::fill(start_, start_ + lanes_, 0.0);
+    const Slot h = slot_[0];
+    while (live_ > 0) {
+      for (std::size_t base = 0; base < lanes_; base += width) {
+        Q hv[kGroup];
+        V prev[kGroup], k[kGroup];
+        M frozen[kGroup], pending[kGroup];
+        std::size_t open = 0;
+        for (std::size_t g = 0; g < kGroup; ++g) {
+          const std::size_t o = base + g * nl;
+          hv[g] = h.load(o);
+          prev[g] = hn::Load(d, prev_ + o);
+          k[g] = hn::Load(d, start_ + o);
+          frozen[g] = hn::MaskFromVec(hn::Load(d, frozen_ + o));
+          pending[g] = hn::MaskFromVec(hn::Load(d, pending_ + o));
+          open += nl - hn::CountTrue(d, frozen[g]);
+        }
+        if (open == 0) continue;
+        std::size_t decided = 0;
+        for (int step = 0; step < kRun && 4 * decided < width && decided < open; ++step) {
+#pragma GCC unroll 4
+          for (std::size_t g = 0; g < kGroup; ++g) {
+            const std::size_t o = base + g * nl;
+            Q q = sqr(hv[g]);
+            if (kAdd == 1) q = add(q, lit);
+            if (kAdd == 2) q = add(q, c.load(o));
+            if (kAdd == 3) q.w = hn::Add(q.w, lit.w);
+            V metric;
+            M exit;
+            if (kEscape) {
+              metric = norm2(q);
+              exit = hn::Not(hn::Le(metric, r2));
+            } else {
+              metric = norm2(sub(q, hv[g]));
+              exit = hn::Or(hn::Not(hn::Ge(metric, r2)), hn::Not(hn::IsFinite(metric)));
+            }
+            k[g] = hn::Add(k[g], one);
+            const M now = hn::AndNot(frozen[g], hn::Or(exit, hn::Eq(k[g], iters)));
+            if (HWY_UNLIKELY(!hn::AllFalse(d, now))) {
+              V code = hn::IfThenElse(exit, k[g], minus1);
+              if (!kEscape) code = hn::IfThenElse(hn::IsFinite(metric), code, minus2);
+              hn::BlendedStore(code, now, d, cap_code_ + o);
+              hn::BlendedStore(metric, now, d, cap_a_ + o);
+              hn::BlendedStore(prev[g], now, d, cap_b_ + o);
+              frozen[g] = hn::Or(frozen[g], now);
+              pending[g] = hn::Or(pending[g], now);
+              decided += hn::CountTrue(d, now);
+              // A decided lane computes on from 0 until it is refilled (no overflow or
+              // subnormal values on the way).
+              q = {hn::IfThenElse(now, zero, q.w), hn::IfThenElse(now, zero, q.x),
+                   hn::IfThenElse(now, zero, q.y), hn::IfThenElse(now, zero, q.z)};
+            }
+            hv[g] = q;
+            prev[g] = metric;
+          }
+        }
+        for (std::size_t g = 0; g < kGroup; ++g) {
+          const std::size_t o = base + g * nl;
+          h.store(o, hv[g]);
+          hn::Store(prev[g], d, prev_ + o);
+          hn::Store(k[g], d, start_ + o);
+          hn::Store(hn::VecFromMask(d, frozen[g]), d, frozen_ + o);
+          hn::Store(hn::VecFromMask(d, pending[g]), d, pending_ + o);
+          if (hn::AllFalse(d, pending[g])) continue;
+          finished(pending[g], hn::Load(d, cap_code_ + o), hn::Load(d, cap_a_ + o),
+                   hn::Load(d, cap_b_ + o), hn::Load(d, idx_ + o));
+          refill(o, pending[g]);
+          // Refilled lanes start at step 0.
+          hn::Store(hn::IfThenElseZero(hn::Not(pending[g]), hn::Load(d, start_ + o)), d,
+                    start_ + o);
+        }
+      }
+    }
+  }
+#endif
+
+  // Records every decided orbit and refills its lane from the queue (or idles it).
+  void retire_all() {
+    if (!any_pending_) return;
+    any_pending_ = false;
+    const D d;
+    const std::size_t nl = hn::Lanes(d);
+    for (std::size_t o = 0; o < lanes_; o += nl) {
+      const M done = hn::MaskFromVec(hn::Load(d, pending_ + o));
+      if (hn::AllFalse(d, done)) continue;
+      finished(done, hn::Load(d, cap_code_ + o), hn::Load(d, cap_a_ + o), hn::Load(d, cap_b_ + o),
+               hn::Load(d, idx_ + o));
+      refill(o, done);
+    }
+  }
+
+  // New points into the lanes of `done` at o (h, c, previous metric, point, start), which
+  // thaw; lanes the queue cannot fill become idle.
+  void refill(std::size_t o, M done) {
+    const D d;
+    const std::size_t nl = hn::Lanes(d);
+    const Slot& h = slot_[0];
+    hn::Store(hn::Zero(d), d, pending_ + o);
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+    const std::size_t want = hn::CountTrue(d, done);
+    const V g = hn::Set(d, static_cast<double>(sweeps_));
+    if (queued_ - taken_ >= want) {
+      const __mmask8 m = done.raw;
+      auto expand = [&](const double* src, double* dst) {
+        _mm512_store_pd(dst, _mm512_mask_expandloadu_pd(_mm512_load_pd(dst), m, src + taken_));
+      };
+      for (int c = 0; c < 4; ++c) {
+        expand(qh_[c].data(), h.c[c] + o);
+        if (s_->c_register >= 0) expand(qc_[c].data(), slot_[s_->c_register].c[c] + o);
+      }
+      expand(qprev_.data(), prev_ + o);
+      expand(qidx_.data(), idx_ + o);
+      hn::Store(hn::IfThenElse(done, g, hn::Load(d, start_ + o)), d, start_ + o);
+      hn::Store(hn::IfThenElseZero(hn::Not(done), hn::Load(d, frozen_ + o)), d, frozen_ + o);
+      taken_ += want;
+      return;
+    }
+#endif
+    std::uint8_t bits[8] = {};
+    hn::StoreMaskBits(d, done, bits);
+    for (std::size_t i = 0; i < nl; ++i) {
+      if (!(bits[i / 8] & (1u << (i % 8)))) continue;
+      const std::size_t lane = o + i;
+      if (taken_ < queued_) {
+        for (int c = 0; c < 4; ++c) {
+          h.c[c][lane] = qh_[c][taken_];
+          if (s_->c_register >= 0) slot_[s_->c_register].c[c][lane] = qc_[c][taken_];
+        }
+        prev_[lane] = qprev_[taken_];
+        idx_[lane] = qidx_[taken_];
+        start_[lane] = static_cast<double>(sweeps_);
+        frozen_[lane] = 0.0;
+        ++taken_;
+      } else {
+        for (int c = 0; c < 4; ++c) h.c[c][lane] = 0.0;  // idles on harmless values
+        --live_;
+      }
+    }
+  }
+
+  // Appends decided orbits (code, metric, previous metric, point) to the finished buffer.
+  void finished(M m, V code, V a, V b, V idx) {
+    const D d;
+    compress_store(code, m, fcode_ + fcount_);
+    compress_store(a, m, fa_ + fcount_);
+    compress_store(b, m, fb_ + fcount_);
+    fcount_ += compress_store(idx, m, fidx_ + fcount_);
+    if (fcount_ + hn::Lanes(d) > kFinished) flush();
+  }
+
+  // F of the finished orbits, written to their points.
+  void flush() {
+    const D d;
+    const std::size_t nl = hn::Lanes(d);
+    HWY_ALIGN double f[8] = {};
+    for (std::size_t i = fcount_; i % nl; ++i) {  // pad the last vector with a harmless orbit
+      fcode_[i] = -1;
+      fa_[i] = fb_[i] = 1;
+      fidx_[i] = -1;
+    }
+    const V iters = hn::Set(d, s_->iterations);
+    V steps = hn::Zero(d);
+    for (std::size_t i = 0; i < fcount_; i += nl) {
+      const V k = hn::Load(d, fcode_ + i);
+      const V idx = hn::Load(d, fidx_ + i);
+      const V fv = field_of(*s_, k, hn::Load(d, fa_ + i), hn::Load(d, fb_ + i));
+      // Steps done: the exit step, or N for an orbit that never decided (and the padding,
+      // whose point index is negative, none).
+      const V done = hn::IfThenElse(hn::Lt(k, hn::Zero(d)), iters, k);
+      steps = hn::Add(steps, hn::IfThenElseZero(hn::Ge(idx, hn::Zero(d)), done));
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+      const __mmask8 valid = _mm512_cmp_pd_mask(idx.raw, _mm512_setzero_pd(), _CMP_GE_OQ);
+      _mm512_mask_i64scatter_pd(out_, valid, _mm512_cvttpd_epi64(idx.raw), fv.raw, 8);
+#else
+      hn::Store(fv, d, f);
+      const std::size_t m = std::min(nl, fcount_ - i);
+      for (std::size_t q = 0; q < m; ++q) out_[static_cast<std::size_t>(fidx_[i + q])] = f[q];
+#endif
+    }
+    steps_ += static_cast<std::uint64_t>(hn::GetLane(hn::SumOfLanes(d, steps)));
+    fcount_ = 0;
+  }
+
+  // One operation over all lanes.
+  void apply(const KernelOp& op) {
+    const Slot a = slot_[op.a], b = slot_[op.b], dst = slot_[op.dst];
+    switch (op.code) {
+      case OpCode::kLoad: {
+        const Q l = broadcast(op.lit);
+        each([&](std::size_t o) { dst.store(o, l); });
+        break;
+      }
+      case OpCode::kNeg:
+        each([&](std::size_t o) {
+          const Q q = a.load(o);
+          dst.store(o, {hn::Neg(q.w), hn::Neg(q.x), hn::Neg(q.y), hn::Neg(q.z)});
+        });
+        break;
+      case OpCode::kConj:
+        each([&](std::size_t o) {
+          const Q q = a.load(o);
+          dst.store(o, {q.w, hn::Neg(q.x), hn::Neg(q.y), hn::Neg(q.z)});
+        });
+        break;
+      case OpCode::kInv:
+        each([&](std::size_t o) { dst.store(o, inv(a.load(o))); });
+        break;
+      case OpCode::kNorm:
+      case OpCode::kAbs: {
+        const V zero = hn::Zero(D());
+        const bool root = op.code == OpCode::kAbs;
+        each([&](std::size_t o) {
+          const V n2 = norm2(a.load(o));
+          dst.store(o, {root ? hn::Sqrt(n2) : n2, zero, zero, zero});
+        });
+        break;
+      }
+      case OpCode::kSqr:
+        with_add(op, [&](std::size_t o) { return sqr(a.load(o)); });
+        break;
+      case OpCode::kAdd:
+        each([&](std::size_t o) { dst.store(o, add(a.load(o), b.load(o))); });
+        break;
+      case OpCode::kSub:
+        each([&](std::size_t o) { dst.store(o, sub(a.load(o), b.load(o))); });
+        break;
+      case OpCode::kMul:
+        with_add(op, [&](std::size_t o) { return mul(a.load(o), b.load(o)); });
+        break;
+      case OpCode::kDiv:
+        each([&](std::size_t o) { dst.store(o, mul(a.load(o), inv(b.load(o)))); });
+        break;
+      case OpCode::kAddReal: {
+        const V l = hn::Set(D(), op.lit.w);
+        each([&](std::size_t o) {
+          Q q = a.load(o);
+          q.w = hn::Add(q.w, l);
+          dst.store(o, q);
+        });
+        break;
+      }
+      case OpCode::kAddLit: {
+        const Q l = broadcast(op.lit);
+        each([&](std::size_t o) { dst.store(o, add(a.load(o), l)); });
+        break;
+      }
+      case OpCode::kLitSub: {
+        const Q l = broadcast(op.lit);
+        each([&](std::size_t o) { dst.store(o, sub(l, a.load(o))); });
+        break;
+      }
+      case OpCode::kScale: {
+        const V l = hn::Set(D(), op.lit.w);
+        with_add(op, [&](std::size_t o) { return scale(l, a.load(o)); });
+        break;
+      }
+      case OpCode::kMulLit: {
+        const Q l = broadcast(op.lit);
+        with_add(op, [&](std::size_t o) { return mul(a.load(o), l); });
+        break;
+      }
+      case OpCode::kLitMul: {
+        const Q l = broadcast(op.lit);
+        with_add(op, [&](std::size_t o) { return mul(l, a.load(o)); });
+        break;
+      }
+      case OpCode::kLitDiv: {
+        const Q l = broadcast(op.lit);
+        each([&](std::size_t o) { dst.store(o, mul(l, inv(a.load(o)))); });
+        break;
+      }
+      case OpCode::kScaleAddReal: {
+        const V sc = hn::Set(D(), op.lit.w), t = hn::Set(D(), op.lit.x);
+        each([&](std::size_t o) {
+          Q q = scale(sc, a.load(o));
+          q.w = hn::Add(q.w, t);
+          dst.store(o, q);
+        });
+        break;
+      }
+      default:  // analytic functions: kernel_supports() keeps such programs on the scalar path
+        break;
+    }
+  }
+
+  template <class F>
+  HWY_INLINE void each(const F& f) {
+    const std::size_t nl = hn::Lanes(D());
+    for (std::size_t o = 0; o < lanes_; o += nl) f(o);
+  }
+
+  // dst = f(o), followed by the fused addition of the operation.
+  template <class F>
+  HWY_INLINE void with_add(const KernelOp& op, const F& f) {
+    const Slot dst = slot_[op.dst];
+    switch (op.add) {
+      case 1: {
+        const Q l = broadcast(op.add_lit);
+        each([&](std::size_t o) { dst.store(o, add(f(o), l)); });
+        break;
+      }
+      case 2: {
+        const Slot r = slot_[op.add_reg];
+        each([&](std::size_t o) { dst.store(o, add(f(o), r.load(o))); });
+        break;
+      }
+      case 3: {
+        const V l = hn::Set(D(), op.add_lit.w);
+        each([&](std::size_t o) {
+          Q q = f(o);
+          q.w = hn::Add(q.w, l);
+          dst.store(o, q);
+        });
+        break;
+      }
+      default:
+        each([&](std::size_t o) { dst.store(o, f(o)); });
+        break;
+    }
+  }
+
+  const KernelSetup* s_ = nullptr;
+  double* out_ = nullptr;
+  std::uint64_t steps_ = 0;
+  std::size_t lanes_ = 0, live_ = 0;
+  bool result_is_temp_ = false;
+  std::vector<double> storage_;
+  Slot slot_[kSlots];
+  // Per lane: the sweep its orbit started in, previous and new metric (escape: |h|^2,
+  // cut-off: |h_k - h_(k-1)|^2), point index; all-ones bits in frozen_ for a decided or idle
+  // lane, in pending_ for a decided one; what F needs of a decided orbit.
+  HWY_ALIGN double prev_buf_[kMaxInFlight + 8], metric_buf_[kMaxInFlight + 8];
+  double* prev_ = prev_buf_;
+  double* metric_ = metric_buf_;
+  HWY_ALIGN double start_[kMaxInFlight + 8], idx_[kMaxInFlight + 8];
+  HWY_ALIGN double frozen_[kMaxInFlight + 8], pending_[kMaxInFlight + 8];
+  HWY_ALIGN double cap_code_[kMaxInFlight + 8], cap_a_[kMaxInFlight + 8], cap_b_[kMaxInFlight + 8];
+  std::uint64_t sweeps_ = 0;
+  bool any_pending_ = false;
+  // Waiting points.
+  std::vector<double> qh_[4], qc_[4], qidx_, qprev_;
+  std::size_t queued_ = 0, taken_ = 0;
+  // Finished orbits.
+  HWY_ALIGN double fcode_[kFinished + 8], fa_[kFinished + 8], fb_[kFinished + 8],
+      fidx_[kFinished + 8];
+  std::size_t fcount_ = 0;
+};
+
+std::uint64_t KernelField(const KernelSetup& s, const double* x, const double* y, const double* z,
+                          std::size_t n, double* out) {
+  thread_local std::unique_ptr<Machine> machine;  // large: kept per thread, not on the stack
+  if (!machine) machine = std::make_unique<Machine>();
+  return machine->run(s, x, y, z, n, out);
+}
+
+}  // namespace HWY_NAMESPACE
+}  // namespace qjulia::detail
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace qjulia::detail {
+
+HWY_EXPORT(KernelField);
+
+namespace {
+
+// The vector targets the kernel is compiled for, best first.
+constexpr std::int64_t kVectorTargets = HWY_AVX3 | HWY_AVX2;
+
+bool reads(const KernelOp& op, int r) {
+  switch (op.code) {
+    case OpCode::kLoad:
+      return op.add == 2 && op.add_reg == r;
+    case OpCode::kAdd:
+    case OpCode::kSub:
+    case OpCode::kMul:
+    case OpCode::kDiv:
+      return op.a == r || op.b == r || (op.add == 2 && op.add_reg == r);
+    default:
+      return op.a == r || (op.add == 2 && op.add_reg == r);
+  }
+}
+
+// True when register r is not read after ops[from - 1] before it is written again, and is not
+// the result.
+bool dead_after(const std::vector<KernelOp>& ops, std::size_t from, int r, int result) {
+  for (std::size_t j = from; j < ops.size(); ++j) {
+    if (reads(ops[j], r)) return false;
+    if (ops[j].dst == r) return true;
+  }
+  return r != result;
+}
+
+}  // namespace
+
+void prepare_kernel(KernelSetup& s) {
+  std::vector<KernelOp> ops;
+  for (int i = 0; i < s.op_count; ++i) {
+    const Op& src = s.ops[i];
+    KernelOp op{src.code, src.dst, src.a, src.b, src.lit, 0, 0, Quat()};
+    const bool ua = s.uniform[op.a], ub = s.uniform[op.b];
+    // A uniform register operand becomes a literal where the operation has a literal form;
+    // the arithmetic is the same (x - y and x + (-y) round alike; a / b is a * inv(b)).
+    switch (op.code) {
+      case OpCode::kAdd:
+        if (ub)
+          op = {OpCode::kAddLit, op.dst, op.a, 0, s.init[op.b], 0, 0, Quat()};
+        else if (ua)
+          op = {OpCode::kAddLit, op.dst, op.b, 0, s.init[op.a], 0, 0, Quat()};
+        break;
+      case OpCode::kSub:
+        if (ub)
+          op = {OpCode::kAddLit, op.dst, op.a, 0, -s.init[op.b], 0, 0, Quat()};
+        else if (ua)
+          op = {OpCode::kLitSub, op.dst, op.b, 0, s.init[op.a], 0, 0, Quat()};
+        break;
+      case OpCode::kMul:
+        if (ub)
+          op = {OpCode::kMulLit, op.dst, op.a, 0, s.init[op.b], 0, 0, Quat()};
+        else if (ua)
+          op = {OpCode::kLitMul, op.dst, op.b, 0, s.init[op.a], 0, 0, Quat()};
+        break;
+      case OpCode::kDiv:
+        if (ub)
+          op = {OpCode::kMulLit, op.dst, op.a, 0, inv(s.init[op.b]), 0, 0, Quat()};
+        else if (ua)
+          op = {OpCode::kLitDiv, op.dst, op.b, 0, s.init[op.a], 0, 0, Quat()};
+        break;
+      default:
+        break;
+    }
+    ops.push_back(op);
+  }
+  // Fuse an addition into the square or product before it when that product is not read
+  // again: h^2 + c, p*h^2 + q, 2*h^3 + 1.
+  std::vector<KernelOp> fused;
+  for (std::size_t i = 0; i < ops.size(); ++i) {
+    KernelOp op = ops[i];
+    const bool product = op.code == OpCode::kSqr || op.code == OpCode::kMul ||
+                         op.code == OpCode::kMulLit || op.code == OpCode::kLitMul ||
+                         op.code == OpCode::kScale;
+    if (product && op.add == 0 && i + 1 < ops.size()) {
+      const KernelOp& next = ops[i + 1];
+      const int t = op.dst;
+      int other = -1;
+      int kind = 0;
+      if (next.code == OpCode::kAddLit && next.a == t) kind = 1;
+      if (next.code == OpCode::kAddReal && next.a == t) kind = 3;
+      if (next.code == OpCode::kAdd && next.a == t && next.b != t) kind = 2, other = next.b;
+      if (next.code == OpCode::kAdd && next.b == t && next.a != t) kind = 2, other = next.a;
+      // The product is not read again: the addition overwrites it, or nothing reads it.
+      if (kind != 0 && (next.dst == t || dead_after(ops, i + 2, t, s.result))) {
+        op.add = static_cast<std::uint8_t>(kind);
+        op.add_lit = next.lit;
+        op.add_reg = static_cast<std::uint8_t>(kind == 2 ? other : 0);
+        op.dst = next.dst;
+        ++i;
+      }
+    }
+    fused.push_back(op);
+  }
+  s.kops = std::move(fused);
+}
+
+std::vector<std::string> kernel_targets() {
+  std::vector<std::string> out;
+  for (std::int64_t t : hwy::SupportedAndGeneratedTargets())
+    if (t & kVectorTargets) out.push_back(hwy::TargetName(t));
+  return out;
+}
+
+std::vector<std::int64_t> kernel_dispatch_targets() {
+  std::vector<std::int64_t> out;
+  for (std::int64_t t : hwy::SupportedAndGeneratedTargets())
+    if (t & kVectorTargets) out.push_back(t);
+  return out;
+}
+
+std::string kernel_target() {
+  const std::int64_t best = hwy::SupportedTargets() & HWY_TARGETS & kVectorTargets;
+  if (best == 0) return "scalar";
+  return hwy::TargetName(best & -best);
+}
+
+bool kernel_supports(const Op* ops, int op_count) {
+  for (int i = 0; i < op_count; ++i)
+    if (ops[i].code >= OpCode::kExp) return false;
+  return true;
+}
+
+std::uint64_t kernel_field(const KernelSetup& setup, const double* x, const double* y,
+                           const double* z, std::size_t n, double* out) {
+  if (n == 0) return 0;
+  return HWY_DYNAMIC_DISPATCH(KernelField)(setup, x, y, z, n, out);
+}
+
+}  // namespace qjulia::detail
+#endif  // HWY_ONCE

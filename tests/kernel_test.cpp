@@ -1,0 +1,358 @@
+// The batched vector kernel against the scalar reference, on every target this build dispatches
+// to: random points of every preset and of randomly generated formulas.
+#include "field/kernel.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "field/program.h"
+#include "hwy/targets.h"
+#include "qjulia/field/classify.h"
+#include "qjulia/field/params.h"
+
+namespace qjulia {
+namespace {
+
+// Quaternion arithmetic in two roundings of double precision: as the scalar path computes
+// (kFused = false: separate products and sums, division by |a|^2), and as the vector kernel
+// computes (kFused = true: fused multiply-adds in the same order, one reciprocal of |a|^2).
+// Where the two give different F, F depends on the last bits and no two correct evaluators
+// need agree.
+template <bool kFused>
+struct Arith {
+  static double madd(double a, double b, double c) {
+    return kFused ? std::fma(a, b, c) : a * b + c;
+  }
+  static double nmadd(double a, double b, double c) {
+    return kFused ? std::fma(-a, b, c) : c - a * b;
+  }
+  static double norm2(const Quat& a) {
+    return madd(a.z, a.z, madd(a.y, a.y, madd(a.x, a.x, a.w * a.w)));
+  }
+  static Quat mul(const Quat& a, const Quat& b) {
+    if (!kFused) return a * b;
+    return {nmadd(a.z, b.z, nmadd(a.y, b.y, nmadd(a.x, b.x, a.w * b.w))),
+            nmadd(a.z, b.y, madd(a.y, b.z, madd(a.x, b.w, a.w * b.x))),
+            madd(a.z, b.x, madd(a.y, b.w, nmadd(a.x, b.z, a.w * b.y))),
+            madd(a.z, b.w, nmadd(a.y, b.x, madd(a.x, b.y, a.w * b.z)))};
+  }
+  static Quat sqr(const Quat& a) {
+    if (!kFused) return qjulia::sqr(a);
+    const double t = a.w + a.w;
+    return {nmadd(a.z, a.z, nmadd(a.y, a.y, nmadd(a.x, a.x, a.w * a.w))), t * a.x, t * a.y,
+            t * a.z};
+  }
+  static Quat inv(const Quat& a) {
+    if (!kFused) return qjulia::inv(a);
+    const double r = 1.0 / norm2(a);
+    return {a.w * r, -(a.x * r), -(a.y * r), -(a.z * r)};
+  }
+};
+
+// The formula's compiled program in the arithmetic A.
+template <class A>
+Quat eval(const Formula::Program& p, const Quat& h, const std::vector<Quat>& constants) {
+  using detail::OpCode;
+  Quat r[detail::kRegisters];
+  r[0] = h;
+  for (std::size_t i = 0; i < p.used_index.size(); ++i) r[1 + i] = constants[p.used_index[i]];
+  for (const detail::Op& op : p.ops) {
+    const Quat a = r[op.a], b = r[op.b], l = op.lit;
+    Quat v;
+    switch (op.code) {
+      case OpCode::kLoad:
+        v = l;
+        break;
+      case OpCode::kNeg:
+        v = -a;
+        break;
+      case OpCode::kConj:
+        v = conj(a);
+        break;
+      case OpCode::kInv:
+        v = A::inv(a);
+        break;
+      case OpCode::kNorm:
+        v = Quat(A::norm2(a));
+        break;
+      case OpCode::kAbs:
+        v = Quat(std::sqrt(A::norm2(a)));
+        break;
+      case OpCode::kSqr:
+        v = A::sqr(a);
+        break;
+      case OpCode::kAdd:
+        v = a + b;
+        break;
+      case OpCode::kSub:
+        v = a - b;
+        break;
+      case OpCode::kMul:
+        v = A::mul(a, b);
+        break;
+      case OpCode::kDiv:
+        v = A::mul(a, A::inv(b));
+        break;
+      case OpCode::kAddReal:
+        v = {a.w + l.w, a.x, a.y, a.z};
+        break;
+      case OpCode::kAddLit:
+        v = a + l;
+        break;
+      case OpCode::kLitSub:
+        v = l - a;
+        break;
+      case OpCode::kScale:
+        v = l.w * a;
+        break;
+      case OpCode::kMulLit:
+        v = A::mul(a, l);
+        break;
+      case OpCode::kLitMul:
+        v = A::mul(l, a);
+        break;
+      case OpCode::kLitDiv:
+        v = A::mul(l, A::inv(a));
+        break;
+      case OpCode::kScaleAddReal:
+        v = l.w * a;
+        v.w += l.x;
+        break;
+      default:
+        v = {NAN, NAN, NAN, NAN};
+        break;
+    }
+    r[op.dst] = v;
+  }
+  return r[p.result];
+}
+
+// F of DESIGN.md in the arithmetic of Arith<kFused>: the reference the kernel is held to
+// (kFused = false, the scalar path's arithmetic), and the check of how well F is conditioned.
+template <bool kFused>
+double reference_field(const Params& p, double x, double y, double z) {
+  std::vector<std::string> names;
+  std::vector<Quat> values;
+  for (const auto& [name, value] : p.constants) {
+    names.push_back(name);
+    values.push_back(value);
+  }
+  int c_index = -1;
+  if (p.mode == Mode::kMandelbrot) {
+    c_index = static_cast<int>(names.size());
+    for (std::size_t i = 0; i < names.size(); ++i)
+      if (names[i] == "c") c_index = static_cast<int>(i);
+    if (c_index == static_cast<int>(names.size())) {
+      names.push_back("c");
+      values.push_back({});
+    }
+  }
+  const Formula f = Formula::compile(p.formula, names);
+  const Slice::General s = p.slice.resolved();
+  const Quat q = s.origin + x * s.directions[0] + y * s.directions[1] + z * s.directions[2];
+  using T = double;
+  using A = Arith<kFused>;
+  Quat h = q;
+  if (c_index >= 0) {
+    values[c_index] = q;
+    h = p.start;
+  }
+  const int n = p.iterations;
+  const T log_r = std::log(p.bailout);
+  const T r2 = p.bailout * p.bailout;
+  const T inf = std::numeric_limits<T>::infinity();
+  auto frac = [](T a, T b) -> T {
+    if (std::isinf(a)) return std::isinf(b) ? 0.5 : 1.0;
+    if (std::isinf(b)) return 0.0;
+    return a / (a + b);
+  };
+  auto clamp = [](T v) -> double {
+    return std::isnan(v) ? 1e6 : static_cast<double>(std::max<T>(-1e6, std::min<T>(1e6, v)));
+  };
+  const T half = 0.5;
+  if (p.method == Method::kEscape) {
+    T prev2 = A::norm2(h);
+    if (prev2 > r2) return clamp(n + frac(half * std::log(prev2) - log_r, 1.0));
+    for (int k = 1; k <= n; ++k) {
+      const Quat next = eval<A>(f.program(), h, values);
+      const T n2 = A::norm2(next);
+      if (!(n2 <= r2)) {
+        const T sv = std::isfinite(n2) ? half * std::log(n2) - log_r : inf;
+        const T sp = prev2 > 0 ? half * std::log(prev2) - log_r : -1.0;
+        return clamp((n - k) + frac(sv, -sp));
+      }
+      h = next;
+      prev2 = n2;
+    }
+    return clamp(half * std::log(prev2) - log_r);
+  }
+  T t_prev = inf;
+  for (int k = 1; k <= n; ++k) {
+    const Quat next = eval<A>(f.program(), h, values);
+    const T d2 = A::norm2(next - h);
+    if (!std::isfinite(d2)) return -1e6;
+    const T t = d2 > 0 ? half * std::log(d2) - log_r : -inf;
+    if (t < 0) return clamp(k == 1 ? (n - 1) + frac(-t, 1.0) : (n - k) + frac(-t, t_prev));
+    t_prev = t;
+    h = next;
+  }
+  return clamp(-t_prev);
+}
+
+// Random expressions in h and the constants over the whole language the kernel covers.
+std::string random_formula(std::mt19937_64& rng, int depth) {
+  std::uniform_int_distribution<int> pick(0, depth <= 0 ? 3 : 13);
+  std::uniform_real_distribution<double> lit(-1.5, 1.5);
+  auto signed_number = [&] {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3f", lit(rng));
+    return std::string(buf);
+  };
+  auto number = [&] {
+    const std::string s = signed_number();
+    return s[0] == '-' ? "(" + s + ")" : s;
+  };
+  switch (pick(rng)) {
+    case 0:
+    case 1:
+      return "h";
+    case 2:
+      return "c";
+    case 3:
+      if (std::uniform_int_distribution<int>(0, 1)(rng)) return number();
+      return "[" + signed_number() + "," + signed_number() + "," + signed_number() + "," +
+             signed_number() + "]";
+    case 4:
+      return "(" + random_formula(rng, depth - 1) + "+" + random_formula(rng, depth - 1) + ")";
+    case 5:
+      return "(" + random_formula(rng, depth - 1) + "-" + random_formula(rng, depth - 1) + ")";
+    case 6:
+    case 7:
+      return "(" + random_formula(rng, depth - 1) + "*" + random_formula(rng, depth - 1) + ")";
+    case 8:
+      return "(" + random_formula(rng, depth - 1) + "/" + random_formula(rng, depth - 1) + ")";
+    case 9: {
+      const int e = std::uniform_int_distribution<int>(-3, 4)(rng);
+      return "(" + random_formula(rng, depth - 1) + ")^" + std::to_string(e);
+    }
+    case 10:
+      return "-" + random_formula(rng, depth - 1);
+    default: {
+      static const char* const f[] = {"conj", "inv", "norm", "abs", "sqr"};
+      return std::string(f[std::uniform_int_distribution<int>(0, 4)(rng)]) + "(" +
+             random_formula(rng, depth - 1) + ")";
+    }
+  }
+}
+
+// Runs `p` through the kernel on every vector target it is compiled for and this CPU runs,
+// against the reference, on random points of the box. The kernel uses
+// fused multiply-adds and the reference does not, so the two differ in the last bits; F must
+// agree within 1e-9 * max(1, |F|), with the same classification where |F| > 1e-9, at every point
+// where F is well-conditioned: where the reference computed with the kernel's rounding (fused
+// multiply-adds, a reciprocal) agrees with it within 1e-11 * max(1, |F|). Elsewhere (an orbit
+// whose last step is rounding noise, as in h/h) no two correct evaluators need agree. Returns
+// the share of points so excluded.
+double check_against_reference(const Params& p, int count, unsigned seed) {
+  const Classifier cls(p);
+  const detail::KernelSetup* k = cls.kernel();
+  EXPECT_NE(k, nullptr) << p.formula << ": the kernel should cover this formula";
+  if (!k) return 1.0;
+  std::mt19937_64 rng(seed);
+  std::vector<double> x(count), y(count), z(count), ref(count), got(count);
+  std::vector<char> conditioned(count);
+  int excluded = 0;
+  for (int i = 0; i < count; ++i) {
+    x[i] = std::uniform_real_distribution<double>(p.bounds.min[0], p.bounds.max[0])(rng);
+    y[i] = std::uniform_real_distribution<double>(p.bounds.min[1], p.bounds.max[1])(rng);
+    z[i] = std::uniform_real_distribution<double>(p.bounds.min[2], p.bounds.max[2])(rng);
+    ref[i] = reference_field<false>(p, x[i], y[i], z[i]);
+    const double fused = reference_field<true>(p, x[i], y[i], z[i]);
+    conditioned[i] = std::abs(fused - ref[i]) <= 1e-11 * std::max(1.0, std::abs(ref[i]));
+    excluded += !conditioned[i];
+  }
+  for (std::int64_t target : detail::kernel_dispatch_targets()) {
+    hwy::SetSupportedTargetsForTest(target);
+    std::fill(got.begin(), got.end(), std::nan(""));
+    detail::kernel_field(*k, x.data(), y.data(), z.data(), count, got.data());
+    for (int i = 0; i < count; ++i) {
+      if (!conditioned[i]) continue;
+      const double f = ref[i], g = got[i];
+      const bool same_class = std::abs(f) <= 1e-9 || (f <= 0) == (g <= 0);
+      const bool close = std::abs(g - f) <= 1e-9 * std::max(1.0, std::abs(f));
+      EXPECT_TRUE(same_class && close)
+          << hwy::TargetName(target) << " '" << p.formula << "' " << to_string(p.method) << " at ("
+          << x[i] << ", " << y[i] << ", " << z[i] << "): kernel " << g << ", reference " << f;
+      if (!(same_class && close)) break;
+    }
+  }
+  hwy::SetSupportedTargetsForTest(0);
+  return static_cast<double>(excluded) / count;
+}
+
+TEST(Kernel, DispatchesToAVX2OrBetterWhereTheCpuHasIt) {
+  const std::vector<std::string> targets = detail::kernel_targets();
+  EXPECT_EQ(detail::kernel_dispatch_targets().size(), targets.size());
+  if (__builtin_cpu_supports("avx2")) {
+    ASSERT_FALSE(targets.empty());
+    EXPECT_NE(detail::kernel_target(), "scalar");
+    EXPECT_EQ(Classifier(preset("classic-julia")).evaluator(), detail::kernel_target());
+  }
+  if (__builtin_cpu_supports("avx512f")) {
+    EXPECT_EQ(detail::kernel_target(), "AVX3");
+  }
+}
+
+TEST(Kernel, EveryPresetMatchesTheScalarReferenceOnEveryTarget) {
+  unsigned seed = 1;
+  for (const std::string& name : preset_names()) {
+    SCOPED_TRACE(name);
+    EXPECT_LT(check_against_reference(preset(name), 4000, seed++), 0.01);
+  }
+}
+
+TEST(Kernel, RandomFormulasMatchTheScalarReferenceOnEveryTarget) {
+  std::mt19937_64 rng(20261201);
+  double excluded = 0;
+  const int trials = 200;
+  for (int trial = 0; trial < trials; ++trial) {
+    Params p;
+    p.formula = random_formula(rng, 3);
+    p.set_constant("c", {0.3, -0.4, 0.2, 0.1});
+    p.method = trial % 2 ? Method::kEscape : Method::kCutoff;
+    p.mode = trial % 5 == 4 ? Mode::kMandelbrot : Mode::kJulia;
+    p.iterations = 3 + trial % 8;
+    p.bailout = p.method == Method::kEscape ? 2.5 : 0.05;
+    SCOPED_TRACE(p.formula);
+    excluded += check_against_reference(p, 300, 1000 + trial);
+  }
+  // The comparison must cover the points, not skip them.
+  EXPECT_LT(excluded / trials, 0.05);
+}
+
+TEST(Kernel, BatchesOfAnySizeGiveThePointwiseValues) {
+  // Lane refill must not mix up points: every batch size and offset gives the same values.
+  const Params p = preset("newton-cubic");
+  const Classifier cls(p);
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-2, 2);
+  const int n = 1000;
+  std::vector<double> x(n), y(n), z(n);
+  for (int i = 0; i < n; ++i) x[i] = u(rng), y[i] = u(rng), z[i] = u(rng);
+  std::vector<float> all(n);
+  cls.field(x.data(), y.data(), z.data(), n, all.data());
+  for (int size : {1, 3, 8, 31, 32, 33, 200}) {
+    std::vector<float> part(n);
+    for (int i = 0; i < n; i += size)
+      cls.field(x.data() + i, y.data() + i, z.data() + i, std::min(size, n - i), part.data() + i);
+    for (int i = 0; i < n; ++i) ASSERT_EQ(part[i], all[i]) << "batch size " << size << ", " << i;
+  }
+}
+
+}  // namespace
+}  // namespace qjulia
