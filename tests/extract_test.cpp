@@ -6,8 +6,8 @@
 #include <complex>
 
 #include "qjulia/field/classify.h"
-#include "qjulia/pipeline/pipeline.h"
 #include "qjulia/grid/sample.h"
+#include "qjulia/pipeline/pipeline.h"
 
 namespace qjulia {
 namespace {
@@ -27,7 +27,7 @@ Meshed mesh_of(const Params& p, bool dense = false) {
   const SampledGrid grid = sample(p, so);
   ExtractStats es;
   Meshed out;
-  out.mesh = extract(grid, p, {}, &es);
+  out.mesh = extract(grid, {}, &es);
   out.measure = measure(out.mesh);
   out.voxel = grid.voxel_size();
   out.evaluations = grid.evaluations() + es.evaluations;

@@ -212,6 +212,25 @@ double Solid::constraint(double x, double y, double z) const {
   return c;
 }
 
+double Solid::constraint_crossing(const std::array<double, 3>& in,
+                                  const std::array<double, 3>& out) const {
+  double s = 1.0;
+  // Each wall and plane is a linear function of the position; the first one to turn positive.
+  auto piece = [&](double at_in, double at_out) {
+    if (at_out > 0 && at_in <= 0) s = std::min(s, -at_in / (at_out - at_in));
+  };
+  for (int a = 0; a < 3; ++a) {
+    piece(min_[a] - in[a], min_[a] - out[a]);
+    piece(in[a] - max_[a], out[a] - max_[a]);
+  }
+  for (const ClipPlane& c : clip_) {
+    const double li = c.normal[0] * in[0] + c.normal[1] * in[1] + c.normal[2] * in[2] - c.d;
+    const double lo = c.normal[0] * out[0] + c.normal[1] * out[1] + c.normal[2] * out[2] - c.d;
+    piece(li, lo);
+  }
+  return s;
+}
+
 std::optional<float> Solid::excluded_field(double x, double y, double z) const {
   const double c = constraint(x, y, z) / voxel_;
   if (c > 0) return static_cast<float>(std::max(c, 1e-6));

@@ -8,6 +8,7 @@
 #include "qjulia/mesh/clean.h"
 #include "qjulia/mesh/decimate.h"
 #include "qjulia/mesh/print.h"
+#include "qjulia/field/classify.h"
 #include "qjulia/surface/extract.h"
 
 namespace qjulia {
@@ -47,7 +48,7 @@ class StageTimer {
 const char* version() { return QJULIA_VERSION; }
 
 PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
-  validate(params);
+  const Solid solid(params);  // validates and compiles, once for the whole run
   PipelineResult result;
   RunStats& stats = result.stats;
   StageTimer timer(stats, opts.progress, opts.cancel);
@@ -56,7 +57,7 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   sopts.dense = opts.dense;
   sopts.cancel = opts.cancel;
   sopts.progress = timer.start("sample");
-  SampledGrid grid = sample(params, sopts);
+  SampledGrid grid = sample(solid, sopts);
   timer.stop();
   stats.evaluations = grid.evaluations();
   stats.dense_evaluations = grid.dense_evaluations();
@@ -69,7 +70,8 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   eopts.cancel = opts.cancel;
   eopts.progress = timer.start("extract");
   ExtractStats estats;
-  TriMesh mesh = extract(grid, params, eopts, &estats);
+  TriMesh mesh = opts.keep_grid ? extract(grid, eopts, &estats)
+                               : extract(std::move(grid), eopts, &estats);
   timer.stop();
   stats.refine_evaluations = estats.evaluations;
 

@@ -80,6 +80,11 @@ class Solid {
   /// The signed distance to the box and clip constraints alone, model units (<= 0 where they
   /// keep the point).
   double constraint(double x, double y, double z) const;
+  /// Along the segment from `in` (kept by the constraints) to `out` (excluded): the fraction s in
+  /// (0, 1] of the way at which the box or a clip plane first excludes the point, exactly (the
+  /// constraints are planes).
+  double constraint_crossing(const std::array<double, 3>& in,
+                             const std::array<double, 3>& out) const;
   /// The field of a point the box or a clip plane excludes (the constraint in voxels, > 0), or
   /// nothing when the constraints keep it.
   std::optional<float> excluded_field(double x, double y, double z) const;

@@ -27,16 +27,17 @@ GridGeometry grid_geometry(const Params& params);
 struct SampleOptions {
   /// Evaluate every grid point instead of refining coarse blocks (the validation path).
   bool dense = false;
-  /// Side of the coarse blocks, in voxels (a power of two, 2..64).
-  int coarse_block = 16;
   /// Progress in [0, 1]; return false to cancel.
   ProgressFn progress;
   /// Checked throughout the work; when requested, the stage throws Cancelled.
   const CancelToken* cancel = nullptr;
 };
 
-/// The sampled field on the points of grid_geometry(params). Evaluated points hold F; uniform
-/// regions are inactive tiles whose value has the right sign.
+class Solid;
+
+/// The sampled field on the points of grid_geometry(params), in bricks of 8^3 cells (VDB
+/// leaves): the evaluated points hold F, and the cells the surface crosses are known. It keeps
+/// the parameters and the solid it was sampled from.
 class SampledGrid {
  public:
   SampledGrid();
@@ -51,9 +52,14 @@ class SampledGrid {
   std::uint64_t dense_evaluations() const;  ///< points a dense grid has
   std::uint64_t crossing_cells() const;     ///< cells whose corners differ in sign
   std::uint64_t active_voxels() const;      ///< evaluated points stored in the grid
+  std::size_t bricks() const;               ///< bricks holding evaluated points
+  const Params& params() const;             ///< the parameters it was sampled from
+  const Solid& solid() const;               ///< their solid (classifier, box and clips)
 
   /// Writes the grid as a .vdb file (a FloatGrid named "F", with the parameters and the
-  /// field's meaning as metadata). @throws std::runtime_error when the file cannot be written.
+  /// field's meaning as metadata): the evaluated points as active voxels, uniform interior
+  /// blocks as inactive tiles of -(N + 1), the background N + 1. Written through AtomicFile.
+  /// @throws std::runtime_error when the file cannot be written.
   void write_vdb(const std::string& path, const std::string& params_json) const;
 
   struct Impl;  ///< internal (lib/src/detail/grid_impl.h)
@@ -65,7 +71,12 @@ class SampledGrid {
 };
 
 /// Samples the solid of `params` (box and clip planes included).
-/// @throws InvalidInput when params do not validate; Cancelled when progress returns false.
+/// @throws InvalidInput when params do not validate; Cancelled when progress returns false or
+///         opts.cancel is requested.
 SampledGrid sample(const Params& params, const SampleOptions& opts = {});
+
+/// Samples `solid` (built, and so validated, once by the caller).
+/// @throws Cancelled as sample(params).
+SampledGrid sample(const Solid& solid, const SampleOptions& opts = {});
 
 }  // namespace qjulia

@@ -6,7 +6,6 @@
 
 #include "qjulia/base/mesh.h"
 #include "qjulia/base/progress.h"
-#include "qjulia/field/params.h"
 #include "qjulia/grid/sample.h"
 
 namespace qjulia {
@@ -30,12 +29,17 @@ struct ExtractStats {
   std::uint64_t evaluations = 0;  ///< classifier calls for refinement and colours
 };
 
-/// Extracts the closed, oriented, manifold surface of the sampled solid.
-/// @param[in] grid    from sample(params)
-/// @param[in] params  the same parameters
+/// Extracts the closed, oriented, manifold surface of the sampled solid, brick by brick in
+/// parallel; vertices are named by their global grid edge, so the bricks weld exactly. The
+/// vertex and face order depends only on the parameters (not on the thread count).
+/// @param[in] grid    from sample()
 /// @param[out] stats  optional counters
-/// @throws Cancelled when progress returns false.
-TriMesh extract(const SampledGrid& grid, const Params& params, const ExtractOptions& opts = {},
+/// @throws Cancelled when progress returns false or opts.cancel is requested.
+TriMesh extract(const SampledGrid& grid, const ExtractOptions& opts = {},
                 ExtractStats* stats = nullptr);
+
+/// The same, releasing the grid's bricks as they are meshed, so the grid and the mesh are
+/// never both whole in memory; `grid` is empty afterwards.
+TriMesh extract(SampledGrid&& grid, const ExtractOptions& opts = {}, ExtractStats* stats = nullptr);
 
 }  // namespace qjulia

@@ -1,0 +1,657 @@
+#include "grid/bricks.h"
+
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <mutex>
+#include <unordered_map>
+
+#include "qjulia/base/error.h"
+
+namespace qjulia::detail {
+namespace {
+
+// A cell is refined when its sampled values do not change sign but their smallest magnitude is
+// below kRoughness times their spread: the field may cross zero between the samples.
+constexpr float kRoughness = 1.0f;
+// The stride of the coarse lattice.
+constexpr int kCoarse = 16;
+
+int floor_div(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
+// Points to evaluate, with where their values go.
+struct Batch {
+  std::vector<double> x, y, z;
+  std::vector<float> out;
+  std::vector<float*> dest;
+  void clear() {
+    x.clear();
+    y.clear();
+    z.clear();
+    dest.clear();
+  }
+};
+
+// Whether a set of samples makes its cell one to refine: the samples differ in sign, or the
+// field may reach zero between them. Virtual samples (outside the grid or a clip) count for the
+// sign, not for the spread.
+struct Flagger {
+  int inside = 0, total = 0;
+  float lo = std::numeric_limits<float>::max(), hi = -std::numeric_limits<float>::max();
+  void add(float v, bool is_virtual) {
+    inside += v <= 0;
+    ++total;
+    if (!is_virtual) {
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+  }
+  bool refine(bool rough_allowed) const {
+    if (inside != 0 && inside != total) return true;
+    if (!rough_allowed || !(lo <= hi)) return false;
+    const float m = lo > 0 ? lo : -hi;
+    return m < kRoughness * (hi - lo);
+  }
+};
+
+// Requests a brick makes of its neighbours: refine a 4-cell (dilation), look at a cell
+// (closure).
+struct Request {
+  std::uint64_t key;
+  std::uint8_t refine4 = 0;
+  std::uint16_t cell = 0xffff;  // local cell index, or none
+};
+
+}  // namespace
+
+bool virtual_value(const GridGeometry& geo, const Solid& solid, int i, int j, int k, float* v) {
+  if (i < 0 || j < 0 || k < 0 || i >= geo.points[0] || j >= geo.points[1] || k >= geo.points[2]) {
+    *v = 1.0f;
+    return true;
+  }
+  // Every point in the index range is inside the box; only clip planes can exclude it.
+  if (!solid.has_clip()) return false;
+  const auto excluded = solid.excluded_field(
+      geo.origin[0] + i * geo.voxel, geo.origin[1] + j * geo.voxel, geo.origin[2] + k * geo.voxel);
+  if (excluded) *v = *excluded;
+  return excluded.has_value();
+}
+
+struct BrickSampler::Impl {
+  const Solid& solid;
+  const GridGeometry& geo;
+  const SampleOptions& opts;
+  std::atomic<std::uint64_t> evaluations{0};
+
+  Impl(const Solid& s, const GridGeometry& g, const SampleOptions& o) : solid(s), geo(g), opts(o) {}
+
+  void check_cancel() const {
+    if (opts.cancel && opts.cancel->requested()) throw Cancelled();
+  }
+
+  // Queues point (i, j, k) (global) for evaluation into *dest, or stores its virtual value.
+  // Returns true when the value is virtual.
+  bool queue(Batch& b, int i, int j, int k, float* dest) const {
+    float v;
+    if (virtual_value(geo, solid, i, j, k, &v)) {
+      *dest = v;
+      return true;
+    }
+    b.x.push_back(geo.origin[0] + i * geo.voxel);
+    b.y.push_back(geo.origin[1] + j * geo.voxel);
+    b.z.push_back(geo.origin[2] + k * geo.voxel);
+    b.dest.push_back(dest);
+    return false;
+  }
+
+  void run(Batch& b) {
+    const std::size_t n = b.x.size();
+    if (n == 0) return;
+    b.out.resize(n);
+    solid.field(b.x.data(), b.y.data(), b.z.data(), n, b.out.data());
+    for (std::size_t i = 0; i < n; ++i) *b.dest[i] = b.out[i];
+    evaluations += n;
+    b.clear();
+  }
+
+  bool is_virtual(int i, int j, int k) const {
+    float v;
+    return virtual_value(geo, solid, i, j, k, &v);
+  }
+
+  // --- the brick's points --------------------------------------------------------------------
+
+  // The bricks around the one being visited (null where there is none), and the coarse lattice,
+  // from which a point another brick or the lattice already has is copied, not evaluated again.
+  // Bricks are visited in eight classes by the parity of their coordinates, one class at a
+  // time: no two bricks of a class share a point, so what a brick reads of its neighbours does
+  // not change while it runs, and which brick evaluates a shared point does not depend on the
+  // thread count.
+  struct Around {
+    const Brick* n[27] = {};
+  };
+  std::function<const Brick*(std::uint64_t)> find;
+  const float* lattice = nullptr;
+  const float* centres = nullptr;
+  std::function<std::size_t(int, int, int)> lattice_at;
+  int lattice_hi[3] = {0, 0, 0};
+
+  Around around(const Brick& br) const {
+    Around a;
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz)
+          if (dx || dy || dz)
+            a.n[(dx + 1) * 9 + (dy + 1) * 3 + (dz + 1)] =
+                find(brick_key(br.at.x + dx, br.at.y + dy, br.at.z + dz));
+    return a;
+  }
+
+  // The value of global point g from a neighbour brick or the coarse lattice, if one has it.
+  bool lookup(const Brick& br, const Around& a, const int g[3], float* v) const {
+    int lo[3], hi[3];
+    for (int k = 0; k < 3; ++k) {
+      const int b = (k == 0 ? br.at.x : k == 1 ? br.at.y : br.at.z);
+      const int local = g[k] - b * kBrick;
+      // The neighbours whose 9^3 points hold g: offset -1 when g is on our lower face, +1 when
+      // on our upper face.
+      lo[k] = local == 0 ? -1 : 0;
+      hi[k] = local == kBrick ? 1 : 0;
+    }
+    for (int dx = lo[0]; dx <= hi[0]; ++dx)
+      for (int dy = lo[1]; dy <= hi[1]; ++dy)
+        for (int dz = lo[2]; dz <= hi[2]; ++dz) {
+          if (!dx && !dy && !dz) continue;
+          const Brick* n = a.n[(dx + 1) * 9 + (dy + 1) * 3 + (dz + 1)];
+          if (!n) continue;
+          const int p = point_index(g[0] - n->at.x * kBrick, g[1] - n->at.y * kBrick,
+                                    g[2] - n->at.z * kBrick);
+          if (n->known.test(p)) {
+            *v = n->value[p];
+            return true;
+          }
+        }
+    if (lattice) {
+      constexpr int s = kCoarse;
+      auto in_lattice = [&](int i, int j, int k) {
+        return i >= -1 && j >= -1 && k >= -1 && i <= lattice_hi[0] + 1 && j <= lattice_hi[1] + 1 &&
+               k <= lattice_hi[2] + 1;
+      };
+      if (g[0] % s == 0 && g[1] % s == 0 && g[2] % s == 0 &&
+          in_lattice(g[0] / s, g[1] / s, g[2] / s)) {
+        *v = lattice[lattice_at(g[0] / s, g[1] / s, g[2] / s)];
+        return true;
+      }
+      if (g[0] % s == s / 2 && g[1] % s == s / 2 && g[2] % s == s / 2) {
+        const int i = g[0] / s, j = g[1] / s, k = g[2] / s;
+        if (i <= lattice_hi[0] && j <= lattice_hi[1] && k <= lattice_hi[2]) {
+          *v = centres[lattice_at(i, j, k)];
+          return true;
+        }
+      }
+    }
+    return false;
+  }
+
+  // Makes the listed local points of `brick` known: copied from a neighbour or the lattice, or
+  // queued in the batch for evaluation.
+  template <class F>
+  void need(Brick& br, Batch& b, F&& each_point) const {
+    const Around a = find ? around(br) : Around{};
+    each_point([&](int li, int lj, int lk) {
+      const int p = point_index(li, lj, lk);
+      if (br.known.test(p)) return;
+      br.known.set(p);
+      const int g[3] = {br.at.x * kBrick + li, br.at.y * kBrick + lj, br.at.z * kBrick + lk};
+      if (g[0] >= 0 && g[1] >= 0 && g[2] >= 0 && lookup(br, a, g, &br.value[p])) return;
+      queue(b, g[0], g[1], g[2], &br.value[p]);
+    });
+  }
+
+  // Flags the cube of side s (points) at local lower corner (i, j, k) by its corners (and its
+  // centre when `centre`).
+  bool flag_cube(const Brick& br, int i, int j, int k, int s, bool centre) const {
+    Flagger f;
+    for (int d = 0; d < 8; ++d) {
+      const int a = i + (d & 1) * s, bb = j + ((d >> 1) & 1) * s, c = k + (d >> 2) * s;
+      f.add(br.value[point_index(a, bb, c)],
+            is_virtual(br.at.x * kBrick + a, br.at.y * kBrick + bb, br.at.z * kBrick + c));
+    }
+    if (centre) {
+      const int a = i + s / 2, bb = j + s / 2, c = k + s / 2;
+      f.add(br.value[point_index(a, bb, c)],
+            is_virtual(br.at.x * kBrick + a, br.at.y * kBrick + bb, br.at.z * kBrick + c));
+    }
+    return f.refine(s > 1);
+  }
+
+  // --- one visit of a brick -------------------------------------------------------------------
+
+  // Level 8 of a candidate brick: its corners; true when it is to be refined.
+  bool flag8(Brick& br, Batch& b) {
+    need(br, b, [](auto&& at) {
+      for (int d = 0; d < 8; ++d) at((d & 1) * kBrick, ((d >> 1) & 1) * kBrick, (d >> 2) * kBrick);
+    });
+    run(b);
+    return flag_cube(br, 0, 0, 0, kBrick, false);
+  }
+
+  // Runs the refinement of a brick from its requests; appends requests to its neighbours.
+  void visit(Brick& br, std::uint8_t seed4, const std::vector<std::uint16_t>& seed_cells,
+             bool refined8, Batch& b, std::vector<Request>& out) {
+    // Level 4: the 27 points at stride 4; flagged 4-cells dilated by one 4-cell.
+    if (refined8 && !br.started) {
+      need(br, b, [](auto&& at) {
+        for (int i = 0; i <= 8; i += 4)
+          for (int j = 0; j <= 8; j += 4)
+            for (int k = 0; k <= 8; k += 4) at(i, j, k);
+      });
+      run(b);
+      for (int q = 0; q < 8; ++q)
+        if (flag_cube(br, (q & 1) * 4, ((q >> 1) & 1) * 4, (q >> 2) * 4, 4, false))
+          br.flagged4 |= static_cast<std::uint8_t>(1u << q);
+      for (int q = 0; q < 8; ++q) {
+        if (!(br.flagged4 >> q & 1)) continue;
+        const int c[3] = {q & 1, (q >> 1) & 1, q >> 2};
+        for (int dx = -1; dx <= 1; ++dx)
+          for (int dy = -1; dy <= 1; ++dy)
+            for (int dz = -1; dz <= 1; ++dz) {
+              const int n[3] = {c[0] + dx, c[1] + dy, c[2] + dz};
+              const int bo[3] = {floor_div(n[0], 2), floor_div(n[1], 2), floor_div(n[2], 2)};
+              const int lq =
+                  (n[0] - 2 * bo[0]) | ((n[1] - 2 * bo[1]) << 1) | ((n[2] - 2 * bo[2]) << 2);
+              if (bo[0] == 0 && bo[1] == 0 && bo[2] == 0) {
+                seed4 |= static_cast<std::uint8_t>(1u << lq);
+              } else {
+                const int nb[3] = {br.at.x + bo[0], br.at.y + bo[1], br.at.z + bo[2]};
+                if (!in_range(nb)) continue;
+                out.push_back(
+                    {brick_key(nb[0], nb[1], nb[2]), static_cast<std::uint8_t>(1u << lq)});
+              }
+            }
+      }
+    }
+    br.started = true;
+    br.refine4 |= seed4;
+    // Level 2: the 27 points at stride 2 of each new 4-cell; its 2-cells flagged.
+    const std::uint8_t new4 = br.refine4 & static_cast<std::uint8_t>(~br.done4);
+    if (new4) {
+      need(br, b, [&](auto&& at) {
+        for (int q = 0; q < 8; ++q) {
+          if (!(new4 >> q & 1)) continue;
+          const int o[3] = {(q & 1) * 4, ((q >> 1) & 1) * 4, (q >> 2) * 4};
+          for (int i = 0; i <= 4; i += 2)
+            for (int j = 0; j <= 4; j += 2)
+              for (int k = 0; k <= 4; k += 2) at(o[0] + i, o[1] + j, o[2] + k);
+        }
+      });
+      run(b);
+      for (int q = 0; q < 8; ++q) {
+        if (!(new4 >> q & 1)) continue;
+        const int o[3] = {(q & 1) * 4, ((q >> 1) & 1) * 4, (q >> 2) * 4};
+        for (int r = 0; r < 8; ++r) {
+          const int c[3] = {o[0] + (r & 1) * 2, o[1] + ((r >> 1) & 1) * 2, o[2] + (r >> 2) * 2};
+          if (flag_cube(br, c[0], c[1], c[2], 2, false))
+            br.refine2 |= std::uint64_t{1} << ((c[0] / 2) * 16 + (c[1] / 2) * 4 + c[2] / 2);
+        }
+      }
+      br.done4 |= new4;
+    }
+    // Level 1: the points of each new 2-cell; its crossing voxels start the closure.
+    std::vector<std::uint16_t> frontier(seed_cells);
+    const std::uint64_t new2 = br.refine2 & ~br.done2;
+    if (new2) {
+      need(br, b, [&](auto&& at) {
+        for (int t = 0; t < 64; ++t) {
+          if (!(new2 >> t & 1)) continue;
+          const int o[3] = {(t / 16) * 2, ((t / 4) % 4) * 2, (t % 4) * 2};
+          for (int i = 0; i <= 2; ++i)
+            for (int j = 0; j <= 2; ++j)
+              for (int k = 0; k <= 2; ++k) at(o[0] + i, o[1] + j, o[2] + k);
+        }
+      });
+      run(b);
+      for (int t = 0; t < 64; ++t) {
+        if (!(new2 >> t & 1)) continue;
+        const int o[3] = {(t / 16) * 2, ((t / 4) % 4) * 2, (t % 4) * 2};
+        for (int r = 0; r < 8; ++r)
+          frontier.push_back(static_cast<std::uint16_t>(
+              cell_index(o[0] + (r & 1), o[1] + ((r >> 1) & 1), o[2] + (r >> 2))));
+      }
+      br.done2 |= new2;
+    }
+    close(br, frontier, b, out);
+  }
+
+  bool in_range(const int nb[3]) const {
+    for (int a = 0; a < 3; ++a)
+      if (nb[a] < -1 || nb[a] * kBrick > geo.points[a] - 1) return false;
+    return true;
+  }
+
+  // The closure: a crossing cell whose face has a sign change continues into the cell across
+  // that face, which is then examined too (in this brick, or by a request to the neighbour).
+  void close(Brick& br, std::vector<std::uint16_t> frontier, Batch& b, std::vector<Request>& out) {
+    std::vector<std::uint16_t> next;
+    while (!frontier.empty()) {
+      // Corners of the cells not yet visited.
+      std::size_t keep = 0;
+      for (std::uint16_t c : frontier)
+        if (!br.visited.test(c)) {
+          br.visited.set(c);
+          frontier[keep++] = c;
+        }
+      frontier.resize(keep);
+      need(br, b, [&](auto&& at) {
+        for (std::uint16_t c : frontier) {
+          const int i = c / 64, j = (c / 8) % 8, k = c % 8;
+          for (int d = 0; d < 8; ++d) at(i + (d & 1), j + ((d >> 1) & 1), k + (d >> 2));
+        }
+      });
+      run(b);
+      next.clear();
+      for (std::uint16_t c : frontier) {
+        const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
+        // Cells below -1 or beyond the last point hold nothing.
+        const int g[3] = {br.at.x * kBrick + ci[0], br.at.y * kBrick + ci[1],
+                          br.at.z * kBrick + ci[2]};
+        if (g[0] < -1 || g[1] < -1 || g[2] < -1 || g[0] >= geo.points[0] || g[1] >= geo.points[1] ||
+            g[2] >= geo.points[2])
+          continue;
+        bool in[8];
+        int inside = 0;
+        for (int d = 0; d < 8; ++d)
+          inside += in[d] =
+              br.value[point_index(ci[0] + (d & 1), ci[1] + ((d >> 1) & 1), ci[2] + (d >> 2))] <= 0;
+        if (inside == 0 || inside == 8) continue;
+        br.surface.set(c);
+        for (int a = 0; a < 3; ++a)
+          for (int t = 0; t < 2; ++t) {
+            int face_inside = 0;
+            for (int d = 0; d < 8; ++d)
+              if (((d >> a) & 1) == t) face_inside += in[d];
+            if (face_inside == 0 || face_inside == 4) continue;
+            int n[3] = {ci[0], ci[1], ci[2]};
+            n[a] += t ? 1 : -1;
+            const int gn = g[a] + (t ? 1 : -1);
+            if (gn < -1 || gn >= geo.points[a]) continue;
+            if (n[a] >= 0 && n[a] < kBrick) {
+              const std::uint16_t nc = static_cast<std::uint16_t>(cell_index(n[0], n[1], n[2]));
+              if (!br.visited.test(nc)) next.push_back(nc);
+            } else {
+              int nb[3] = {br.at.x, br.at.y, br.at.z};
+              nb[a] += t ? 1 : -1;
+              n[a] = t ? 0 : kBrick - 1;
+              Request r{brick_key(nb[0], nb[1], nb[2])};
+              r.cell = static_cast<std::uint16_t>(cell_index(n[0], n[1], n[2]));
+              out.push_back(r);
+            }
+          }
+      }
+      frontier.swap(next);
+    }
+  }
+};
+
+BrickSampler::BrickSampler(const Solid& solid, const GridGeometry& geo, const SampleOptions& opts)
+    : solid_(solid), geo_(geo), opts_(opts) {}
+
+BrickList BrickSampler::run() {
+  Impl im(solid_, geo_, opts_);
+  const auto& P = geo_.points;
+  auto report = [&](double f) {
+    im.check_cancel();
+    if (opts_.progress && !opts_.progress(std::min(1.0, f))) throw Cancelled();
+  };
+  std::unordered_map<std::uint64_t, std::unique_ptr<Brick>> bricks;
+  auto get = [&](std::uint64_t key) -> Brick& {
+    auto& slot = bricks[key];
+    if (!slot) {
+      slot = std::make_unique<Brick>();
+      slot->key = key;
+      slot->at = brick_of_key(key);
+    }
+    return *slot;
+  };
+  std::vector<std::uint64_t> refined8;  // bricks that run the stride-4 level (sorted)
+  // The dense path evaluates every point of every brick itself (the reference the sparse path
+  // is tested against); the sparse path shares points between neighbours.
+  if (!opts_.dense)
+    im.find = [&](std::uint64_t key) -> const Brick* {
+      const auto it = bricks.find(key);
+      return it == bricks.end() ? nullptr : it->second.get();
+    };
+  // Runs f(n, batch) for every brick of `keys`, in eight classes by coordinate parity (see
+  // Impl::need), each class in parallel.
+  auto by_class = [&](const std::vector<std::uint64_t>& keys, auto&& f) {
+    std::vector<std::size_t> cls[8];
+    for (std::size_t n = 0; n < keys.size(); ++n) {
+      const BrickCoord c = brick_of_key(keys[n]);
+      cls[(c.x & 1) | ((c.y & 1) << 1) | ((c.z & 1) << 2)].push_back(n);
+    }
+    for (const auto& members : cls)
+      tbb::parallel_for(std::size_t{0}, members.size(), [&](std::size_t i) {
+        im.check_cancel();
+        thread_local Batch b;
+        f(members[i], b);
+      });
+  };
+
+  if (opts_.dense) {
+    // Every point of every brick; every cell examined.
+    std::vector<std::uint64_t> keys;
+    for (int bx = -1; bx * kBrick <= P[0] - 1; ++bx)
+      for (int by = -1; by * kBrick <= P[1] - 1; ++by)
+        for (int bz = -1; bz * kBrick <= P[2] - 1; ++bz) keys.push_back(brick_key(bx, by, bz));
+    for (std::uint64_t k : keys) get(k);
+    std::vector<Brick*> list;
+    for (std::uint64_t k : keys) list.push_back(bricks[k].get());
+    std::atomic<std::size_t> done{0};
+    std::mutex report_mutex;
+    tbb::parallel_for(std::size_t{0}, list.size(), [&](std::size_t n) {
+      im.check_cancel();
+      thread_local Batch b;
+      Brick& br = *list[n];
+      im.need(br, b, [](auto&& at) {
+        for (int i = 0; i < kSide; ++i)
+          for (int j = 0; j < kSide; ++j)
+            for (int k = 0; k < kSide; ++k) at(i, j, k);
+      });
+      im.run(b);
+      br.started = true;
+      for (int c = 0; c < kBrickCells; ++c) {
+        const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
+        const int g[3] = {br.at.x * kBrick + ci[0], br.at.y * kBrick + ci[1],
+                          br.at.z * kBrick + ci[2]};
+        if (g[0] < -1 || g[1] < -1 || g[2] < -1 || g[0] >= P[0] || g[1] >= P[1] || g[2] >= P[2])
+          continue;
+        int inside = 0;
+        for (int d = 0; d < 8; ++d)
+          inside +=
+              br.value[point_index(ci[0] + (d & 1), ci[1] + ((d >> 1) & 1), ci[2] + (d >> 2))] <= 0;
+        br.visited.set(c);
+        if (inside != 0 && inside != 8) br.surface.set(c);
+      }
+      const std::size_t k = ++done;
+      if (k % 256 == 0) {
+        std::lock_guard<std::mutex> lock(report_mutex);
+        report(0.9 * k / list.size());
+      }
+    });
+  } else {
+    // Level 16: the coarse lattice and the centres of its cells.
+    const int s = kCoarse;
+    int hi[3];
+    for (int a = 0; a < 3; ++a) hi[a] = (P[a] - 1) / s;
+    const int n0 = hi[0] + 3, n1 = hi[1] + 3, n2 = hi[2] + 3;
+    auto lattice_index = [&](int i, int j, int k) {
+      return (static_cast<std::size_t>(i + 1) * n1 + (j + 1)) * n2 + (k + 1);
+    };
+    std::vector<float> lattice(static_cast<std::size_t>(n0) * n1 * n2);
+    std::vector<float> centre(lattice.size());
+    {
+      Batch b;
+      for (int i = -1; i <= hi[0] + 1; ++i)
+        for (int j = -1; j <= hi[1] + 1; ++j)
+          for (int k = -1; k <= hi[2] + 1; ++k) {
+            im.queue(b, i * s, j * s, k * s, &lattice[lattice_index(i, j, k)]);
+            if (i <= hi[0] && j <= hi[1] && k <= hi[2])
+              im.queue(b, i * s + s / 2, j * s + s / 2, k * s + s / 2,
+                       &centre[lattice_index(i, j, k)]);
+          }
+      // In parallel chunks.
+      const std::size_t n = b.x.size();
+      b.out.resize(n);
+      constexpr std::size_t kChunk = 4096;
+      tbb::parallel_for(std::size_t{0}, (n + kChunk - 1) / kChunk, [&](std::size_t c) {
+        im.check_cancel();
+        const std::size_t from = c * kChunk, m = std::min(kChunk, n - from);
+        solid_.field(b.x.data() + from, b.y.data() + from, b.z.data() + from, m,
+                     b.out.data() + from);
+      });
+      for (std::size_t i = 0; i < n; ++i) *b.dest[i] = b.out[i];
+      im.evaluations += n;
+    }
+    report(0.05);
+    im.lattice = lattice.data();
+    im.centres = centre.data();
+    im.lattice_at = [&](int i, int j, int k) { return lattice_index(i, j, k); };
+    for (int a = 0; a < 3; ++a) im.lattice_hi[a] = hi[a];
+    // Flag the coarse cells, dilate; interior blocks for the grid's tiles.
+    std::vector<char> flag16(lattice.size(), 0);
+    for (int i = -1; i <= hi[0]; ++i)
+      for (int j = -1; j <= hi[1]; ++j)
+        for (int k = -1; k <= hi[2]; ++k) {
+          Flagger f;
+          bool all_inside = true;
+          for (int d = 0; d < 8; ++d) {
+            const int a = i + (d & 1), bb = j + ((d >> 1) & 1), c = k + (d >> 2);
+            const float v = lattice[lattice_index(a, bb, c)];
+            f.add(v, im.is_virtual(a * s, bb * s, c * s));
+            all_inside = all_inside && v <= 0;
+          }
+          if (i <= hi[0] && j <= hi[1] && k <= hi[2])
+            f.add(centre[lattice_index(i, j, k)],
+                  im.is_virtual(i * s + s / 2, j * s + s / 2, k * s + s / 2));
+          if (f.refine(true)) {
+            for (int dx = -1; dx <= 1; ++dx)
+              for (int dy = -1; dy <= 1; ++dy)
+                for (int dz = -1; dz <= 1; ++dz) {
+                  const int a = i + dx, bb = j + dy, c = k + dz;
+                  if (a < -1 || bb < -1 || c < -1 || a > hi[0] || bb > hi[1] || c > hi[2]) continue;
+                  flag16[lattice_index(a, bb, c)] = 1;
+                }
+          } else if (all_inside && i >= 0 && j >= 0 && k >= 0) {
+            interior_.push_back({i, j, k});
+          }
+        }
+    // Interior blocks that the dilation flagged are not uniform after all.
+    interior_.erase(std::remove_if(interior_.begin(), interior_.end(),
+                                   [&](const std::array<int, 3>& c) {
+                                     return flag16[lattice_index(c[0], c[1], c[2])] != 0;
+                                   }),
+                    interior_.end());
+    // Level 8: the bricks of flagged coarse cells, by their corners; dilated by one brick.
+    std::vector<std::uint64_t> candidates;
+    for (int i = -1; i <= hi[0]; ++i)
+      for (int j = -1; j <= hi[1]; ++j)
+        for (int k = -1; k <= hi[2]; ++k) {
+          if (!flag16[lattice_index(i, j, k)]) continue;
+          for (int d = 0; d < 8; ++d) {
+            const int nb[3] = {2 * i + (d & 1), 2 * j + ((d >> 1) & 1), 2 * k + (d >> 2)};
+            if (im.in_range(nb)) candidates.push_back(brick_key(nb[0], nb[1], nb[2]));
+          }
+        }
+    std::sort(candidates.begin(), candidates.end());
+    candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+    for (std::uint64_t k : candidates) get(k);
+    std::vector<char> hit(candidates.size(), 0);
+    by_class(candidates, [&](std::size_t n, Batch& b) {
+      hit[n] = im.flag8(*bricks.find(candidates[n])->second, b);
+    });
+    for (std::size_t n = 0; n < candidates.size(); ++n) {
+      if (!hit[n]) continue;
+      const BrickCoord c = brick_of_key(candidates[n]);
+      for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dz = -1; dz <= 1; ++dz) {
+            const int nb[3] = {c.x + dx, c.y + dy, c.z + dz};
+            if (im.in_range(nb)) refined8.push_back(brick_key(nb[0], nb[1], nb[2]));
+          }
+    }
+    tbb::parallel_sort(refined8.begin(), refined8.end());
+    refined8.erase(std::unique(refined8.begin(), refined8.end()), refined8.end());
+    report(0.1);
+
+    // Levels 4, 2, 1 and the closure, in waves: a wave visits bricks with new requests.
+    struct Work {
+      std::uint64_t key;
+      std::uint8_t seed4 = 0;
+      std::vector<std::uint16_t> cells;
+      bool refined8 = false;
+    };
+    std::vector<Work> wave;
+    for (std::uint64_t k : refined8) {
+      get(k);
+      wave.push_back({k, 0, {}, true});
+    }
+    int waves = 0;
+    while (!wave.empty()) {
+      std::vector<Brick*> targets(wave.size());
+      for (std::size_t n = 0; n < wave.size(); ++n) targets[n] = &get(wave[n].key);
+      std::vector<std::vector<Request>> requests(wave.size());
+      std::atomic<std::size_t> done{0};
+      std::mutex report_mutex;
+      std::vector<std::uint64_t> keys(wave.size());
+      for (std::size_t n = 0; n < wave.size(); ++n) keys[n] = wave[n].key;
+      by_class(keys, [&](std::size_t n, Batch& b) {
+        im.visit(*targets[n], wave[n].seed4, wave[n].cells, wave[n].refined8, b, requests[n]);
+        const std::size_t k = ++done;
+        if (waves == 0 && k % 256 == 0) {
+          std::lock_guard<std::mutex> lock(report_mutex);
+          report(0.1 + 0.75 * k / wave.size());
+        }
+      });
+      ++waves;
+      // The next wave: requests merged per brick, without what the brick already has.
+      std::vector<Request> all;
+      for (auto& r : requests) all.insert(all.end(), r.begin(), r.end());
+      std::sort(all.begin(), all.end(), [](const Request& a, const Request& b) {
+        return a.key != b.key ? a.key < b.key : a.cell < b.cell;
+      });
+      std::vector<Work> next;
+      for (std::size_t i = 0; i < all.size();) {
+        std::size_t j = i;
+        Work w{all[i].key};
+        Brick& br = get(all[i].key);
+        for (; j < all.size() && all[j].key == all[i].key; ++j) {
+          w.seed4 |= all[j].refine4 & static_cast<std::uint8_t>(~br.refine4);
+          if (all[j].cell != 0xffff && !br.visited.test(all[j].cell) &&
+              (w.cells.empty() || w.cells.back() != all[j].cell))
+            w.cells.push_back(all[j].cell);
+        }
+        if (w.seed4 || !w.cells.empty()) next.push_back(std::move(w));
+        i = j;
+      }
+      wave.swap(next);
+    }
+  }
+  evaluations_ = im.evaluations;
+  // Bricks that hold nothing are dropped; the rest sorted by key.
+  BrickList out;
+  out.reserve(bricks.size());
+  for (auto& [key, br] : bricks)
+    if (br->known.any()) out.push_back(std::move(br));
+  tbb::parallel_sort(out.begin(), out.end(),
+                     [](const std::unique_ptr<Brick>& a, const std::unique_ptr<Brick>& b) {
+                       return a->key < b->key;
+                     });
+  report(0.9);
+  return out;
+}
+
+}  // namespace qjulia::detail

@@ -1,0 +1,111 @@
+#pragma once
+// Bricks: the unit of sampling, meshing and parallel work. A brick is the cube of 8^3 cells
+// whose lowest cell is 8 * (bx, by, bz) (a VDB leaf); it holds the values of its 9^3 corner
+// points (its own 8^3 and the first layer of its upper neighbours, evaluated again so every
+// brick can decide its cells alone), which of them are known, and which of its cells carry the
+// surface. Cells range over -1 .. points - 1 per axis, so bricks start at -1.
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "qjulia/field/classify.h"
+#include "qjulia/grid/sample.h"
+
+namespace qjulia::detail {
+
+constexpr int kBrick = 8;          ///< cells per brick side
+constexpr int kSide = kBrick + 1;  ///< points per brick side
+constexpr int kBrickPoints = kSide * kSide * kSide;
+constexpr int kBrickCells = kBrick * kBrick * kBrick;
+
+/// Brick coordinates: brick (bx, by, bz) has cells 8 bx .. 8 bx + 7 etc.
+struct BrickCoord {
+  int x = 0, y = 0, z = 0;
+};
+
+/// A 64-bit key per brick, ordered x-major; bricks from -1 to 2^21 - 2 per axis.
+inline std::uint64_t brick_key(int bx, int by, int bz) {
+  return (static_cast<std::uint64_t>(bx + 1) << 42) | (static_cast<std::uint64_t>(by + 1) << 21) |
+         static_cast<std::uint64_t>(bz + 1);
+}
+inline BrickCoord brick_of_key(std::uint64_t key) {
+  constexpr std::uint64_t m = (std::uint64_t{1} << 21) - 1;
+  return {static_cast<int>((key >> 42) & m) - 1, static_cast<int>((key >> 21) & m) - 1,
+          static_cast<int>(key & m) - 1};
+}
+
+/// Index of local point (i, j, k), 0..8 each.
+inline int point_index(int i, int j, int k) { return (i * kSide + j) * kSide + k; }
+/// Index of local cell (i, j, k), 0..7 each.
+inline int cell_index(int i, int j, int k) { return (i * kBrick + j) * kBrick + k; }
+
+/// A fixed-size bit set.
+template <int N>
+struct Bits {
+  std::uint64_t w[(N + 63) / 64] = {};
+  bool test(int i) const { return (w[i >> 6] >> (i & 63)) & 1u; }
+  void set(int i) { w[i >> 6] |= std::uint64_t{1} << (i & 63); }
+  bool any() const {
+    for (std::uint64_t x : w)
+      if (x) return true;
+    return false;
+  }
+  std::size_t count() const {
+    std::size_t n = 0;
+    for (std::uint64_t x : w) n += static_cast<std::size_t>(__builtin_popcountll(x));
+    return n;
+  }
+};
+
+/// One brick of the sampled grid.
+struct Brick {
+  BrickCoord at;
+  std::uint64_t key = 0;
+  float value[kBrickPoints];  ///< F at the known points (the virtual value outside the grid)
+  Bits<kBrickPoints> known;
+  std::uint8_t flagged4 = 0;  ///< 4-cells (of 8) flagged at stride 4, before dilation
+  std::uint8_t refine4 = 0;   ///< 4-cells refined to stride 2
+  std::uint8_t done4 = 0;     ///< 4-cells whose stride-2 points were evaluated and flagged
+  std::uint64_t refine2 = 0;  ///< 2-cells (of 64) refined to stride 1
+  std::uint64_t done2 = 0;    ///< 2-cells whose stride-1 points were evaluated
+  Bits<kBrickCells> surface;  ///< crossing cells: the ones to mesh
+  Bits<kBrickCells> visited;  ///< cells the closure has looked at
+  bool started = false;       ///< the stride-4 level ran
+};
+
+/// The bricks of a sampled grid, sorted by key.
+using BrickList = std::vector<std::unique_ptr<Brick>>;
+
+/// Samples the solid into bricks: the coarse-to-fine refinement of DESIGN.md (a coarse lattice
+/// at stride 16 with cell centres, then strides 8, 4, 2, 1 where the samples change sign or the
+/// field varies more than its smallest magnitude, dilated at strides >= 4), and the closure
+/// that follows the surface across cell faces, executed brick by brick in parallel.
+/// Evaluations go through the batched classifier. The result does not depend on the number of
+/// threads: every decision depends only on values, and the closure is a fixed point.
+class BrickSampler {
+ public:
+  BrickSampler(const Solid& solid, const GridGeometry& geo, const SampleOptions& opts);
+
+  /// Runs the sampling; returns the bricks that hold surface cells (and those the refinement
+  /// visited), sorted by key.
+  BrickList run();
+
+  std::uint64_t evaluations() const { return evaluations_; }
+  /// Coarse blocks (16^3) whose samples were all inside: uniform interior (for the VDB tiles).
+  const std::vector<std::array<int, 3>>& interior_blocks() const { return interior_; }
+
+ private:
+  struct Impl;
+  const Solid& solid_;
+  GridGeometry geo_;
+  SampleOptions opts_;
+  std::uint64_t evaluations_ = 0;
+  std::vector<std::array<int, 3>> interior_;
+};
+
+/// The value of grid point (i, j, k) that is never evaluated: outside the index range (1) or
+/// excluded by a clip plane (the constraint in voxels, > 0). False for points that are sampled.
+bool virtual_value(const GridGeometry& geo, const Solid& solid, int i, int j, int k, float* v);
+
+}  // namespace qjulia::detail

@@ -1,0 +1,125 @@
+#include "surface/cube.h"
+
+#include <utility>
+
+namespace qjulia::detail {
+
+CubeTables::CubeTables() {
+  for (auto& row : edge_of) row.fill(-1);
+  int e = 0;
+  for (int axis = 0; axis < 3; ++axis)
+    for (int d = 0; d < 8; ++d)
+      if (!corner_bit(d, axis)) {
+        edge_corner[e] = d;
+        edge_axis[e] = axis;
+        edge_of[d][d | (1 << axis)] = edge_of[d | (1 << axis)][d] = e;
+        ++e;
+      }
+  int f = 0;
+  for (int axis = 0; axis < 3; ++axis)
+    for (int side = 0; side < 2; ++side) {
+      const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+      const int base = side << axis;
+      face_corners[f] = {base, base | (1 << u), base | (1 << u) | (1 << v), base | (1 << v)};
+      face_axis[f] = axis;
+      face_side[f] = side;
+      ++f;
+    }
+  for (int f2 = 0; f2 < 6; ++f2)
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) {
+        const int ea = edge_of[face_corners[f2][a]][face_corners[f2][(a + 1) % 4]];
+        const int eb = edge_of[face_corners[f2][b]][face_corners[f2][(b + 1) % 4]];
+        share_face[ea][eb] = true;
+      }
+}
+
+const CubeTables& cube() {
+  static const CubeTables t;
+  return t;
+}
+
+CellLoops cell_loops(const float v[8]) {
+  const CubeTables& t = cube();
+  int next_of[12];
+  for (int& n : next_of) n = -1;
+  for (int f = 0; f < 6; ++f) {
+    const auto& fc = t.face_corners[f];
+    bool in[4];
+    int inside = 0;
+    for (int q = 0; q < 4; ++q) inside += in[q] = v[fc[q]] <= 0;
+    if (inside == 0 || inside == 4) continue;
+    // The crossing edges of the face, in cyclic order: edge q joins corners q and q+1.
+    int crossing[4], nc = 0;
+    for (int q = 0; q < 4; ++q)
+      if (in[q] != in[(q + 1) % 4]) crossing[nc++] = q;
+    std::pair<int, int> segs[2];  // pairs of face edge slots
+    int ns = 0;
+    if (nc == 2) {
+      segs[ns++] = {crossing[0], crossing[1]};
+    } else {
+      // Ambiguous face: the asymptotic decider of the bilinear interpolant, which both cells
+      // sharing the face compute alike.
+      const double a = v[fc[0]], b = v[fc[1]], cc = v[fc[2]], d = v[fc[3]];
+      const double den = a + cc - b - d;
+      const bool saddle_inside = den != 0 && (a * cc - b * d) / den <= 0;
+      // Corner q is cut off by the segment of edges q-1 and q.
+      const bool cut_inside = !saddle_inside;
+      for (int q = 0; q < 4; ++q)
+        if (in[q] == cut_inside) segs[ns++] = {(q + 3) % 4, q};
+    }
+    const int axis = t.face_axis[f];
+    const double normal_sign = t.face_side[f] ? 1.0 : -1.0;
+    for (int s = 0; s < ns; ++s) {
+      int e1 = t.edge_of[fc[segs[s].first]][fc[(segs[s].first + 1) % 4]];
+      int e2 = t.edge_of[fc[segs[s].second]][fc[(segs[s].second + 1) % 4]];
+      // Midpoints of the edges and an inside corner, in cube-local coordinates.
+      auto mid = [&](int e, int a2) {
+        const int d0 = t.edge_corner[e];
+        return a2 == t.edge_axis[e] ? 0.5 : static_cast<double>(corner_bit(d0, a2));
+      };
+      // A corner on the inside of the segment: with two crossings any inside corner of the
+      // face; a segment of an ambiguous face cuts off corner `second`, and when that corner is
+      // outside, its neighbour is inside.
+      int inside_corner = -1;
+      if (nc == 4) {
+        const int q = segs[s].second;
+        inside_corner = fc[in[q] ? q : (q + 1) % 4];
+      } else {
+        for (int q = 0; q < 4 && inside_corner < 0; ++q)
+          if (in[q]) inside_corner = fc[q];
+      }
+      double m1[3], dv[3], cv[3];
+      for (int a2 = 0; a2 < 3; ++a2) {
+        m1[a2] = mid(e1, a2);
+        dv[a2] = mid(e2, a2) - m1[a2];
+        cv[a2] = corner_bit(inside_corner, a2) - m1[a2];
+      }
+      // (n x d) . c with n = normal_sign * e_axis.
+      const int u = (axis + 1) % 3, w = (axis + 2) % 3;
+      const double nxd_u = -normal_sign * dv[w];
+      const double nxd_w = normal_sign * dv[u];
+      const double left = nxd_u * cv[u] + nxd_w * cv[w];
+      if (left > 0) std::swap(e1, e2);  // the inside must be on the right
+      next_of[e1] = e2;
+    }
+  }
+  // Chain the segments into loops.
+  CellLoops out;
+  bool used[12] = {};
+  for (int start = 0; start < 12; ++start) {
+    if (next_of[start] < 0 || used[start]) continue;
+    int len = 0;
+    int* loop = out.edge[out.count];
+    for (int e = start; !used[e] && len < 12; e = next_of[e]) {
+      used[e] = true;
+      loop[len++] = e;
+      if (next_of[e] < 0) break;
+    }
+    if (len < 3) continue;
+    out.length[out.count++] = len;
+  }
+  return out;
+}
+
+}  // namespace qjulia::detail

@@ -1,0 +1,95 @@
+#pragma once
+// The cube of marching cubes: its corners, edges and faces, the loops in which the surface
+// crosses a cell, and their triangulation.
+#include <array>
+#include <cstdint>
+
+namespace qjulia::detail {
+
+/// Corner d of a cell sits at offset (d & 1, d >> 1 & 1, d >> 2 & 1).
+inline int corner_bit(int d, int axis) { return (d >> axis) & 1; }
+
+/// The twelve edges as (lower corner, axis), the four corners of each face in cyclic order
+/// with the face's normal axis and side, and which edges share a face.
+struct CubeTables {
+  std::array<int, 12> edge_corner{};
+  std::array<int, 12> edge_axis{};
+  std::array<std::array<int, 4>, 6> face_corners{};
+  std::array<int, 6> face_axis{}, face_side{};
+  std::array<std::array<int, 8>, 8> edge_of{};  ///< corner pair -> edge, -1 if not an edge
+  std::array<std::array<bool, 12>, 12> share_face{};
+  CubeTables();
+};
+
+/// The tables (built once).
+const CubeTables& cube();
+
+/// The surface in one cell: closed loops of crossing edges, each oriented so the inside is on
+/// the right seen from outside the cell (counter-clockwise seen from outside the solid).
+/// Ambiguous faces are decided by the asymptotic decider of the bilinear interpolant, which the
+/// two cells that share a face compute alike.
+struct CellLoops {
+  int count = 0;
+  int length[4] = {};
+  int edge[4][12] = {};  ///< cube edges in loop order
+};
+
+/// The loops of a cell with corner values v (inside where v <= 0).
+CellLoops cell_loops(const float v[8]);
+
+/// Triangulates a loop of `len` (<= 12) cube edges so that no new edge joins two cube edges that
+/// share a face (the neighbour cell could make the same edge), by dynamic programming over
+/// sub-polygons; `weight(i, j)` is the cost of the diagonal between loop positions i and j (the
+/// triangulation of least total cost is chosen). Writes loop positions, three per triangle,
+/// oriented like the loop. Returns the triangle count (len - 2), or 0 when no such
+/// triangulation exists.
+template <class Weight>
+int triangulate_loop(const int* loop, int len, Weight&& weight, std::uint8_t* out) {
+  const auto& share = cube().share_face;
+  auto allowed = [&](int i, int j) {
+    return j - i == 1 || (i == 0 && j == len - 1) || !share[loop[i]][loop[j]];
+  };
+  // cost[i][j]: least cost of triangulating the sub-polygon i..j (j - i >= 2), or infinite;
+  // split[i][j]: the apex k of the triangle (i, k, j) on diagonal i-j.
+  double cost[12][12];
+  int split[12][12];
+  for (int i = 0; i + 1 < len; ++i) cost[i][i + 1] = 0;
+  for (int gap = 2; gap < len; ++gap)
+    for (int i = 0; i + gap < len; ++i) {
+      const int j = i + gap;
+      cost[i][j] = 1e300;
+      split[i][j] = -1;
+      if (!allowed(i, j)) continue;
+      const double wij = (j - i == len - 1) ? 0.0 : weight(i, j);
+      for (int k = i + 1; k < j; ++k) {
+        if (cost[i][k] >= 1e300 || cost[k][j] >= 1e300) continue;
+        const double c = cost[i][k] + cost[k][j] + wij;
+        if (c < cost[i][j]) {
+          cost[i][j] = c;
+          split[i][j] = k;
+        }
+      }
+    }
+  if (split[0][len - 1] < 0) return 0;
+  int n = 0;
+  int stack[24][2], top = 0;
+  stack[top][0] = 0;
+  stack[top++][1] = len - 1;
+  while (top > 0) {
+    --top;
+    const int i = stack[top][0], j = stack[top][1];
+    if (j - i < 2) continue;
+    const int k = split[i][j];
+    out[3 * n] = static_cast<std::uint8_t>(i);
+    out[3 * n + 1] = static_cast<std::uint8_t>(k);
+    out[3 * n + 2] = static_cast<std::uint8_t>(j);
+    ++n;
+    stack[top][0] = i;
+    stack[top++][1] = k;
+    stack[top][0] = k;
+    stack[top++][1] = j;
+  }
+  return n;
+}
+
+}  // namespace qjulia::detail

@@ -1,0 +1,162 @@
+#include "surface/refine.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+namespace qjulia::detail {
+namespace {
+
+std::array<double, 3> lerp(const std::array<double, 3>& a, const std::array<double, 3>& b,
+                           double t) {
+  return {a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
+}
+
+struct State {
+  double lo = 0, hi = 1;  // lo keeps the sign of a, hi the sign of b
+  double flo = 0, fhi = 0;
+  double t = 0;  // the point being evaluated
+  bool bisect = false;
+  int steps = 0;
+  bool done = false;
+};
+
+}  // namespace
+
+std::uint64_t refine_segments(const Solid& solid, const Segment* seg, std::size_t n, double tol_t,
+                              int max_steps, std::array<double, 3>* out) {
+  std::vector<State> st(n);
+  std::vector<double> x, y, z;
+  std::vector<float> f;
+  std::vector<std::size_t> which;
+  std::uint64_t evaluations = 0;
+  auto evaluate = [&]() {
+    f.resize(which.size());
+    solid.field(x.data(), y.data(), z.data(), which.size(), f.data());
+    evaluations += which.size();
+  };
+  auto queue = [&](std::size_t i, double t) {
+    const auto p = lerp(seg[i].a, seg[i].b, t);
+    x.push_back(p[0]);
+    y.push_back(p[1]);
+    z.push_back(p[2]);
+    which.push_back(i);
+    st[i].t = t;
+  };
+  auto clear = [&]() {
+    x.clear();
+    y.clear();
+    z.clear();
+    which.clear();
+  };
+  // An end outside only because of the box or a clip plane: the boundary is the plane when the
+  // point on it is in the solid, which makes caps exactly flat.
+  for (std::size_t i = 0; i < n; ++i) {
+    State& s = st[i];
+    s.flo = seg[i].fa;
+    s.fhi = seg[i].fb;
+    const bool a_inside = seg[i].fa <= 0;
+    const auto& o = a_inside ? seg[i].b : seg[i].a;
+    if (solid.constraint(o[0], o[1], o[2]) > 0) {
+      const double c = solid.constraint_crossing(a_inside ? seg[i].a : seg[i].b, o);
+      const double tc = a_inside ? c : 1 - c;
+      queue(i, std::clamp(tc, kEndMargin, 1 - kEndMargin));
+    }
+  }
+  evaluate();
+  for (std::size_t q = 0; q < which.size(); ++q) {
+    const std::size_t i = which[q];
+    State& s = st[i];
+    if (f[q] <= 0) {
+      out[i] = lerp(seg[i].a, seg[i].b, s.t);
+      s.done = true;
+    } else if (seg[i].fa <= 0) {  // the fractal boundary comes first
+      s.hi = s.t;
+      s.fhi = f[q];
+    } else {
+      s.lo = s.t;
+      s.flo = f[q];
+    }
+  }
+  clear();
+  // False position, with a bisection step whenever the last step did not halve the bracket:
+  // fast where the field is smooth, never slower than bisection where it is steep.
+  for (;;) {
+    for (std::size_t i = 0; i < n; ++i) {
+      State& s = st[i];
+      if (s.done) continue;
+      if (s.steps >= max_steps || !(s.hi - s.lo > tol_t)) {
+        double t = (s.flo * s.hi - s.fhi * s.lo) / (s.flo - s.fhi);
+        if (!(t >= s.lo && t <= s.hi)) t = 0.5 * (s.lo + s.hi);
+        // Never on a grid point: a vertex there would coincide with the vertices of the other
+        // edges of that point and leave zero-area triangles.
+        out[i] = lerp(seg[i].a, seg[i].b, std::clamp(t, kEndMargin, 1 - kEndMargin));
+        s.done = true;
+        continue;
+      }
+      const double width = s.hi - s.lo;
+      double t = s.bisect ? 0.5 * (s.lo + s.hi) : (s.flo * s.hi - s.fhi * s.lo) / (s.flo - s.fhi);
+      const double margin = 0.01 * width;
+      if (!(t > s.lo + margin && t < s.hi - margin))
+        t = std::clamp(t, s.lo + margin, s.hi - margin);
+      queue(i, t);
+    }
+    if (which.empty()) break;
+    evaluate();
+    for (std::size_t q = 0; q < which.size(); ++q) {
+      State& s = st[which[q]];
+      const double width = s.hi - s.lo;
+      if ((f[q] <= 0) == (s.flo <= 0)) {
+        s.lo = s.t;
+        s.flo = f[q];
+      } else {
+        s.hi = s.t;
+        s.fhi = f[q];
+      }
+      ++s.steps;
+      s.bisect = s.bisect || s.hi - s.lo > 0.5 * width;  // once steep, stay with bisection
+    }
+    clear();
+  }
+  return evaluations;
+}
+
+std::array<double, 3> project_to_boundary(const Solid& solid, const std::array<double, 3>& c,
+                                          const std::array<double, 3>& normal, double voxel,
+                                          double tol_t, std::uint64_t* evaluations) {
+  std::array<double, 3> best_point = c;
+  // The loop's normal, then the 13 directions to the neighbours of a cube.
+  std::array<double, 3> dirs[14];
+  dirs[0] = normal;
+  int nd = 1;
+  for (int dx = -1; dx <= 1; ++dx)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dz = -1; dz <= 1; ++dz)
+        if (dx > 0 || (dx == 0 && (dy > 0 || (dy == 0 && dz > 0))))
+          dirs[nd++] = {double(dx), double(dy), double(dz)};
+  double best = std::numeric_limits<double>::infinity();
+  for (int pass = 0; pass < 2 && !std::isfinite(best); ++pass)
+    for (const auto& dir : dirs) {
+      const double len = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
+      if (!(len > 0)) continue;
+      const double d = (pass == 0 ? 0.5 : 1.0) * voxel / len;
+      Segment s;
+      s.a = {c[0] - d * dir[0], c[1] - d * dir[1], c[2] - d * dir[2]};
+      s.b = {c[0] + d * dir[0], c[1] + d * dir[1], c[2] + d * dir[2]};
+      *evaluations += 2;
+      s.fa = solid.field(s.a[0], s.a[1], s.a[2]);
+      s.fb = solid.field(s.b[0], s.b[1], s.b[2]);
+      if ((s.fa <= 0) == (s.fb <= 0)) continue;
+      std::array<double, 3> p;
+      *evaluations += refine_segments(solid, &s, 1, tol_t, 24, &p);
+      const double dist = std::hypot(p[0] - c[0], p[1] - c[1], p[2] - c[2]);
+      if (dist < best) {
+        best = dist;
+        best_point = p;
+      }
+    }
+  return best_point;
+}
+
+}  // namespace qjulia::detail
