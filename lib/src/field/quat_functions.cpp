@@ -106,6 +106,12 @@ void cosh_sinh(double x, double* ch, double* sh) {
   }
 }
 
+/// cosh x and sinh x for any real x.
+void cosh_sinh_signed(double x, double* ch, double* sh) {
+  cosh_sinh(std::abs(x), ch, sh);
+  *sh = std::copysign(*sh, x);
+}
+
 /// The complex tanh(x + i y) = re + i im by Kahan's formula, accurate near the poles and free
 /// of overflow ("Branch cuts for complex elementary functions", 1987).
 void complex_tanh(double x, double y, double* re, double* im) {
@@ -117,8 +123,7 @@ void complex_tanh(double x, double y, double* re, double* im) {
   const double tn = std::tan(y);
   const double beta = 1 + tn * tn;  // 1 / cos^2 y
   double ch, sh;
-  cosh_sinh(std::abs(x), &ch, &sh);
-  sh = std::copysign(sh, x);
+  cosh_sinh_signed(x, &ch, &sh);
   const double d = 1 + beta * sh * sh;
   *re = beta * ch * sh / d;
   *im = tn / d;
@@ -136,6 +141,21 @@ double log_abs(const Quat& q, const Plane& p) {
   if (q.w == 0 && p.t == 0) return -HUGE_VAL;  // log 0: a pole
   const int e = scale_exponent(q);
   return 0.5 * std::log(norm2(scaled(q, -e))) + e * kLn2;
+}
+
+/// cosh(q) and sinh(q) together: cosh a cos t + u sinh a sin t and sinh a cos t + u cosh a sin t.
+void quat_cosh_sinh(const Quat& q, Quat* ch, Quat* sh) {
+  const Plane p = plane_of(q);
+  double cha, sha;
+  cosh_sinh_signed(p.a, &cha, &sha);
+  if (p.t == 0) {  // real: no 0 * inf in the vector part
+    *ch = Quat(cha);
+    *sh = Quat(sha);
+    return;
+  }
+  const double c = std::cos(p.t), s = std::sin(p.t);
+  *ch = on_plane(p, cha * c, sha * s);
+  *sh = on_plane(p, sha * c, cha * s);
 }
 
 }  // namespace
@@ -203,21 +223,15 @@ Quat qtan(const Quat& q) {
 }
 
 Quat qsinh(const Quat& q) {
-  const Plane p = plane_of(q);
-  double ch, sh;
-  cosh_sinh(std::abs(p.a), &ch, &sh);
-  sh = std::copysign(sh, p.a);
-  if (p.t == 0) return Quat(sh);
-  return on_plane(p, sh * std::cos(p.t), ch * std::sin(p.t));
+  Quat ch, sh;
+  quat_cosh_sinh(q, &ch, &sh);
+  return sh;
 }
 
 Quat qcosh(const Quat& q) {
-  const Plane p = plane_of(q);
-  double ch, sh;
-  cosh_sinh(std::abs(p.a), &ch, &sh);
-  sh = std::copysign(sh, p.a);
-  if (p.t == 0) return Quat(ch);
-  return on_plane(p, ch * std::cos(p.t), sh * std::sin(p.t));
+  Quat ch, sh;
+  quat_cosh_sinh(q, &ch, &sh);
+  return ch;
 }
 
 Quat qtanh(const Quat& q) {
