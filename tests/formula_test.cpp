@@ -6,11 +6,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <random>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "field/quat_functions.h"
 #include "qjulia/base/error.h"
 
 namespace qjulia {
@@ -156,18 +159,118 @@ TEST(Formula, AppliesTheFunctions) {
   expect_near(eval_hpq("abs(3i + 4j)"), Quat(5), 0);
 }
 
+TEST(Formula, AppliesTheAnalyticFunctionsAndFoldsThemWithTheSameCode) {
+  const std::pair<const char*, Quat (*)(const Quat&)> functions[] = {
+      {"exp", detail::qexp},   {"log", detail::qlog},   {"sqrt", detail::qsqrt},
+      {"sin", detail::qsin},   {"cos", detail::qcos},   {"tan", detail::qtan},
+      {"sinh", detail::qsinh}, {"cosh", detail::qcosh}, {"tanh", detail::qtanh}};
+  for (const auto& [name, f] : functions) {
+    SCOPED_TRACE(name);
+    const std::string call = std::string(name) + "(";
+    expect_near(eval_hpq(call + "h)"), f(kH), 0);
+    expect_near(eval_hpq(call + "p*h + q)"), f(kP * kH + kQ), 0);
+    expect_near(eval_hpq("q*" + call + "h)^2"), kQ * sqr(f(kH)), 0);
+    EXPECT_EQ(Formula::compile(call + "h)", {}).operation_count(), 1u);
+    // A literal-only call is folded at compile time by the same function: one load.
+    const Formula folded = Formula::compile(call + "[0.3, -0.7, 0.4, 1.1])", {});
+    EXPECT_EQ(folded.operation_count(), 1u);
+    expect_near(folded.eval(Quat(5), nullptr), f(kH), 0);
+  }
+}
+
+TEST(Formula, RealExponentsAreRealPowersAndIntegerValuesKeepRepeatedSquaring) {
+  for (double x : {1.5, -1.5, 0.5, 0.25, 2.5, -0.1, 63.5}) {
+    std::ostringstream text;
+    text << std::setprecision(17) << "h^" << x;
+    SCOPED_TRACE(text.str());
+    expect_near(eval_hpq(text.str()), detail::qpow(kH, x), 0);
+    EXPECT_EQ(Formula::compile(text.str(), {}).operation_count(), 1u);
+  }
+  expect_near(eval_hpq("(h + p)^.5"), detail::qpow(kH + kP, 0.5), 0);
+  expect_near(eval_hpq("h^1e-1"), detail::qpow(kH, 0.1), 0);
+  expect_near(eval_hpq("-h^0.5"), -detail::qpow(kH, 0.5), 0);  // -(h^0.5)
+  expect_near(eval_hpq("(h^0.5)^2"), kH, 1e-15);
+  expect_near(eval_hpq("h^0.5"), detail::qsqrt(kH), 1e-15);
+  expect_near(eval_hpq("h^1.5"), kH * detail::qsqrt(kH), 1e-15);
+  expect_near(eval_hpq("h^-1.5*h^1.5"), Quat(1), 1e-15);
+  // An integer value, however written, is an integer power: exact repeated squaring.
+  EXPECT_EQ(Formula::compile("h^2.0", {}).operation_count(), 1u);
+  expect_near(eval_hpq("h^2.0"), sqr(kH), 0);
+  expect_near(eval_hpq("h^3e0"), eval_hpq("h^3"), 0);
+  expect_near(eval_hpq("h^-2.0"), eval_hpq("h^-2"), 0);
+  expect_near(eval_hpq("h^64.0"), eval_hpq("h^64"), 0);
+  expect_near(eval_hpq("h^0.0"), Quat(1), 0);
+  // Literal bases fold with the same function.
+  const Formula f = Formula::compile("2^0.5*h", {});
+  EXPECT_EQ(f.operation_count(), 1u);
+  expect_near(f.eval(kH, nullptr), detail::qpow(Quat(2), 0.5).w * kH, 0);
+}
+
+TEST(Formula, LogsRootsAndRealPowersOfNegativeRealsAreComplex) {
+  const double pi = std::acos(-1.0);
+  expect_near(Formula::compile("sqrt(-4)", {}).eval(kH, nullptr), Quat(0, 2, 0, 0), 0);
+  expect_near(Formula::compile("log(h)", {}).eval(Quat(-1), nullptr), Quat(0, pi, 0, 0), 0);
+  expect_near(Formula::compile("h^0.5", {}).eval(Quat(-4), nullptr), Quat(0, 2, 0, 0), 1e-15);
+  expect_near(Formula::compile("h^1.5", {}).eval(Quat(-4), nullptr), Quat(0, -8, 0, 0), 1e-15);
+  // A folded value that is not real is a coefficient that is not real, though written in reals.
+  EXPECT_FALSE(Formula::compile("h + sqrt(-1)", {}).has_real_coefficients(nullptr));
+  EXPECT_FALSE(Formula::compile("h*log(-2)", {}).has_real_coefficients(nullptr));
+  EXPECT_FALSE(Formula::compile("(-4)^0.5*h", {}).has_real_coefficients(nullptr));
+  EXPECT_TRUE(
+      Formula::compile("h*log(2) + sqrt(4) + exp(-1) + 2^0.5", {}).has_real_coefficients(nullptr));
+  EXPECT_TRUE(Formula::compile("sqrt(h) + log(h - 3)", {}).has_real_coefficients(nullptr));
+}
+
+TEST(Formula, RealCoefficientFormulasWithFunctionsCommuteWithRotations) {
+  // f(u h u^-1) = u f(h) u^-1 for unit u, off the real axis (where the axis i is taken).
+  const Quat real_c(0.7), complex_c(0.7, 0, 0.1, 0);
+  std::mt19937 rng(1515);
+  std::uniform_real_distribution<double> uniform(-2, 2);
+  auto random = [&] { return Quat(uniform(rng), uniform(rng), uniform(rng), uniform(rng)); };
+  for (const std::string text :
+       {"c*sin(h)", "exp(h)+c", "c*cos(h) + tan(h)", "log(h)*c", "sqrt(h) - c", "h^1.5 + c*h^-0.5",
+        "sinh(h)/cosh(h) + tanh(c*h)", "c*exp(h)*h^2"}) {
+    SCOPED_TRACE(text);
+    const Formula f = Formula::compile(text, {"c"});
+    EXPECT_TRUE(f.has_real_coefficients(&real_c));
+    EXPECT_FALSE(f.has_real_coefficients(&complex_c));
+    int checked = 0, broken = 0;
+    while (checked < 200) {
+      const Quat h = random();
+      if (abs(Quat(0, h.x, h.y, h.z)) < 0.2) continue;
+      const Quat r = random();
+      const Quat u = (1 / abs(r)) * r;
+      const Quat rotated = u * h * inv(u);
+      expect_near(f.eval(rotated, &real_c), u * f.eval(h, &real_c) * inv(u), 1e-13);
+      // With a complex c the two sides differ (the check above could fail).
+      const Quat lhs = f.eval(rotated, &complex_c), rhs = u * f.eval(h, &complex_c) * inv(u);
+      broken += abs(lhs - rhs) > 1e-6 * (1 + abs(rhs));
+      ++checked;
+    }
+    EXPECT_GT(broken, 150);
+  }
+}
+
 TEST(Formula, ReportsTheColumnAndWhatWasExpected) {
   const std::vector<std::pair<std::string, std::string>> cases = {
       {"", "formula 1:1: expected an expression"},
-      {"h^", "formula 1:3: expected an integer exponent after '^'"},
-      {"h^1.5", "formula 1:3: expected an integer exponent after '^'"},
-      {"h^-1.5", "formula 1:4: expected an integer exponent after '^'"},
-      {"h^i", "formula 1:3: expected an integer exponent after '^'"},
-      {"h^2i", "formula 1:3: expected an integer exponent after '^'"},
+      {"h^", "formula 1:3: expected a literal real exponent after '^', such as 2, -1.5 or 0.5"},
+      {"h^i", "formula 1:3: expected a literal real exponent after '^', such as 2, -1.5 or 0.5"},
+      {"h^2i", "formula 1:3: expected a literal real exponent after '^', such as 2, -1.5 or 0.5"},
+      {"h^(1.5)",
+       "formula 1:3: expected a literal real exponent after '^', such as 2, -1.5 or 0.5"},
+      {"h^x", "formula 1:3: expected a literal real exponent after '^', such as 2, -1.5 or 0.5"},
+      {"h^-c", "formula 1:4: expected a literal real exponent after '^', such as 2, -1.5 or 0.5"},
       {"h^65", "formula 1:3: expected an exponent between -64 and 64"},
       {"h^-65", "formula 1:4: expected an exponent between -64 and 64"},
+      {"h^64.5", "formula 1:3: expected an exponent between -64 and 64"},
+      {"h^-64.01", "formula 1:4: expected an exponent between -64 and 64"},
       {"h^99999999999999999999", "formula 1:3: expected an exponent between -64 and 64"},
       {"h^2^3", "formula 1:4: expected an operator (use parentheses to chain powers)"},
+      {"h^0.5^2", "formula 1:6: expected an operator (use parentheses to chain powers)"},
+      {"sin h", "formula 1:5: expected '(' after 'sin'"},
+      {"exp(h", "formula 1:6: expected ')'"},
+      {"sinus(h)", "formula 1:1: unknown name 'sinus' (known: h, c, p)"},
       {"(h+1", "formula 1:5: expected ')'"},
       {"conj(h", "formula 1:7: expected ')'"},
       {"h+*2", "formula 1:3: expected an operand"},
@@ -204,7 +307,8 @@ TEST(Formula, NamesUnknownIdentifiersAndTheKnownOnes) {
 
 TEST(Formula, RejectsReservedOrMalformedConstantNames) {
   for (const std::string name :
-       {"h", "i", "j", "k", "conj", "inv", "norm", "abs", "sqr", "", "2a", "a b", "c-d"}) {
+       {"h",   "i",   "j",   "k",   "conj", "inv", "norm", "abs", "sqr",  "",     "2a",
+        "a b", "c-d", "exp", "log", "sqrt", "sin", "cos",  "tan", "sinh", "cosh", "tanh"}) {
     EXPECT_THROW(Formula::compile("h", {name}), InvalidInput) << "name '" << name << "'";
   }
   EXPECT_THROW(Formula::compile("h", {"c", "c"}), InvalidInput);
@@ -271,6 +375,11 @@ TEST(Formula, APoleGivesNonFiniteValuesWithoutThrowing) {
   EXPECT_FALSE(is_finite(g.eval(kH, &zero)));
   EXPECT_FALSE(is_finite(Formula::compile("inv(h)", {}).eval(Quat(), nullptr)));
   EXPECT_FALSE(is_finite(Formula::compile("h/0", {}).eval(kH, nullptr)));
+  EXPECT_FALSE(is_finite(Formula::compile("log(h)", {}).eval(Quat(), nullptr)));
+  EXPECT_FALSE(is_finite(Formula::compile("h^-1.5", {}).eval(Quat(), nullptr)));
+  EXPECT_FALSE(is_finite(Formula::compile("1/sin(h)", {}).eval(Quat(), nullptr)));
+  EXPECT_FALSE(is_finite(Formula::compile("exp(h)", {}).eval(Quat(800, 1, 0, 0), nullptr)));
+  EXPECT_FALSE(is_finite(Formula::compile("c*sin(h)", {"c"}).eval(Quat(0, 0, 800, 0), &kP)));
 }
 
 TEST(Formula, ReportsTheConstantsItUses) {
@@ -335,12 +444,13 @@ TEST(Formula, DefaultConstructedFormulaIsTheIdentity) {
 /// with the quaternion.h operators: a reference interpreter for the compiled program.
 class RandomFormula {
  public:
-  explicit RandomFormula(unsigned seed) : rng_(seed) {}
+  /// @param[in] analytic  also draw the analytic functions and real powers
+  explicit RandomFormula(unsigned seed, bool analytic = false) : rng_(seed), analytic_(analytic) {}
 
   /// Text and value of a random expression of the given depth; `scale` grows to the largest
   /// magnitude met on the way, the yardstick of rounding errors.
   std::pair<std::string, Quat> make(int depth) {
-    const int choice = depth <= 0 ? pick(4) : pick(12);
+    const int choice = depth <= 0 ? pick(4) : pick(analytic_ ? 14 : 12);
     switch (choice) {
       case 0:
         return note({"h", kH});
@@ -381,6 +491,22 @@ class RandomFormula {
         const int n = pick(8) - 3;
         return note({"(" + a.first + ")^" + std::to_string(n), repeated_product(a.second, n)});
       }
+      case 12: {
+        const auto a = make(depth - 1);
+        const std::pair<const char*, Quat (*)(const Quat&)> functions[] = {
+            {"exp", detail::qexp},   {"log", detail::qlog},   {"sqrt", detail::qsqrt},
+            {"sin", detail::qsin},   {"cos", detail::qcos},   {"tan", detail::qtan},
+            {"sinh", detail::qsinh}, {"cosh", detail::qcosh}, {"tanh", detail::qtanh}};
+        const auto& f = functions[pick(9)];
+        return note({std::string(f.first) + "(" + a.first + ")", f.second(a.second)});
+      }
+      case 13: {
+        const auto a = make(depth - 1);
+        const std::pair<const char*, double> exponents[] = {
+            {"0.5", 0.5}, {"-1.5", -1.5}, {"2.5", 2.5}, {".25", 0.25}, {"-0.5", -0.5}};
+        const auto& x = exponents[pick(5)];
+        return note({"(" + a.first + ")^" + x.first, detail::qpow(a.second, x.second)});
+      }
       default: {
         const auto a = make(depth - 1);
         switch (pick(5)) {
@@ -408,21 +534,36 @@ class RandomFormula {
     return e;
   }
   std::mt19937 rng_;
+  bool analytic_;
 };
 
-TEST(Formula, RandomFormulasAgreeWithDirectQuaternionArithmetic) {
+/// Compiles and evaluates 3000 random formulas against their direct values; counts the finite
+/// ones of moderate size that were compared.
+void compare_random_formulas(bool analytic, int* compared) {
   const Quat constants[] = {kP, kQ};
-  int compared = 0;
   for (unsigned seed = 0; seed < 3000; ++seed) {
-    RandomFormula random(seed);
+    RandomFormula random(seed, analytic);
     const auto [text, expected] = random.make(1 + static_cast<int>(seed % 6));
     if (!is_finite(expected) || random.scale > 1e8) continue;
     const Formula f = Formula::compile(text, {"p", "q"});
     const Quat actual = f.eval(kH, constants);
     ASSERT_LE(distance(actual, expected), 1e-11 * random.scale) << text;
-    ++compared;
+    ++*compared;
   }
+}
+
+TEST(Formula, RandomFormulasAgreeWithDirectQuaternionArithmetic) {
+  int compared = 0;
+  compare_random_formulas(false, &compared);
   EXPECT_GT(compared, 2000);
+}
+
+TEST(Formula, RandomFormulasWithAnalyticFunctionsAgreeWithDirectEvaluation) {
+  // The same random expressions with exp, log, ..., tanh and real powers mixed in, against a
+  // direct evaluation with the functions of quat_functions.h.
+  int compared = 0;
+  compare_random_formulas(true, &compared);
+  EXPECT_GT(compared, 1500);
 }
 
 TEST(Formula, RandomAndMutatedTextEitherCompilesOrThrowsInvalidInput) {

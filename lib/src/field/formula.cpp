@@ -6,15 +6,16 @@
 
 #include <array>
 #include <charconv>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
-#include <cstdlib>
 #include <string>
 #include <system_error>
 #include <utility>
 #include <vector>
 
 #include "field/program.h"
+#include "field/quat_functions.h"
 #include "qjulia/base/error.h"
 
 namespace qjulia {
@@ -25,17 +26,75 @@ constexpr std::size_t kMaxFormulaLength = 4096;  // characters
 constexpr int kMaxNesting = 64;   // parentheses, calls and unary minus signs inside each other
 constexpr int kMaxExponent = 64;  // |n| in h^n
 
-enum class Func : int { kConj, kInv, kNorm, kAbs, kSqr };
+// The functions, in the order of their opcodes in kFuncCodes.
+enum class Func : int {
+  kConj,
+  kInv,
+  kNorm,
+  kAbs,
+  kSqr,
+  kExp,
+  kLog,
+  kSqrt,
+  kSin,
+  kCos,
+  kTan,
+  kSinh,
+  kCosh,
+  kTanh
+};
 
 struct FuncName {
   const char* name;
   Func func;
 };
-constexpr std::array<FuncName, 5> kFunctions = {{{"conj", Func::kConj},
-                                                 {"inv", Func::kInv},
-                                                 {"norm", Func::kNorm},
-                                                 {"abs", Func::kAbs},
-                                                 {"sqr", Func::kSqr}}};
+constexpr std::array<FuncName, 14> kFunctions = {{{"conj", Func::kConj},
+                                                  {"inv", Func::kInv},
+                                                  {"norm", Func::kNorm},
+                                                  {"abs", Func::kAbs},
+                                                  {"sqr", Func::kSqr},
+                                                  {"exp", Func::kExp},
+                                                  {"log", Func::kLog},
+                                                  {"sqrt", Func::kSqrt},
+                                                  {"sin", Func::kSin},
+                                                  {"cos", Func::kCos},
+                                                  {"tan", Func::kTan},
+                                                  {"sinh", Func::kSinh},
+                                                  {"cosh", Func::kCosh},
+                                                  {"tanh", Func::kTanh}}};
+
+constexpr OpCode kFuncCodes[] = {OpCode::kConj, OpCode::kInv, OpCode::kNorm, OpCode::kAbs,
+                                 OpCode::kSqr,  OpCode::kExp, OpCode::kLog,  OpCode::kSqrt,
+                                 OpCode::kSin,  OpCode::kCos, OpCode::kTan,  OpCode::kSinh,
+                                 OpCode::kCosh, OpCode::kTanh};
+static_assert(sizeof(kFuncCodes) / sizeof(kFuncCodes[0]) == kFunctions.size());
+
+/// The analytic-function opcodes: a call out of the evaluation loop, kept cold so that the
+/// arithmetic opcodes keep their registers.
+[[gnu::noinline, gnu::cold]] Quat eval_analytic(OpCode code, const Quat& a, double x) {
+  switch (code) {
+    case OpCode::kExp:
+      return qexp(a);
+    case OpCode::kLog:
+      return qlog(a);
+    case OpCode::kSqrt:
+      return qsqrt(a);
+    case OpCode::kSin:
+      return qsin(a);
+    case OpCode::kCos:
+      return qcos(a);
+    case OpCode::kTan:
+      return qtan(a);
+    case OpCode::kSinh:
+      return qsinh(a);
+    case OpCode::kCosh:
+      return qcosh(a);
+    case OpCode::kTanh:
+      return qtanh(a);
+    default:  // kPowReal
+      return qpow(a, x);
+  }
+}
 
 bool is_function_name(const std::string& s, Func* func = nullptr) {
   for (const FuncName& f : kFunctions) {
@@ -67,7 +126,6 @@ struct Token {
   char punct = 0;                  // kPunct: one of + - * / ^ ( ) [ ] ,
   double value = 0;                // kNumber
   int unit = 0;                    // kNumber: 0 real, 1 i, 2 j, 3 k
-  bool integer = false;            // kNumber: digits only, no unit
 };
 
 [[noreturn]] void fail(const Token& t, const std::string& what) {
@@ -107,10 +165,8 @@ std::vector<Token> lex(const std::string& text) {
     const std::size_t begin = pos;
     if (is_digit(c) || (c == '.' && pos + 1 < n && is_digit(text[pos + 1]))) {
       Token t = make(TokenKind::kNumber, begin);
-      bool integer = true;
       while (pos < n && is_digit(text[pos])) ++pos;
       if (pos < n && text[pos] == '.') {
-        integer = false;
         ++pos;
         while (pos < n && is_digit(text[pos])) ++pos;
       }
@@ -123,7 +179,6 @@ std::vector<Token> lex(const std::string& text) {
           ++p;
         }
         if (p < n && is_digit(text[p])) {
-          integer = false;
           pos = p;
           while (pos < n && is_digit(text[pos])) ++pos;
         }
@@ -139,10 +194,8 @@ std::vector<Token> lex(const std::string& text) {
       if (pos < n && (text[pos] == 'i' || text[pos] == 'j' || text[pos] == 'k') &&
           !(pos + 1 < n && is_name_char(text[pos + 1]))) {
         t.unit = text[pos] - 'i' + 1;
-        integer = false;
         ++pos;
       }
-      t.integer = integer;
       t.end = pos;
       tokens.push_back(t);
     } else if (is_name_start(c)) {
@@ -164,14 +217,14 @@ std::vector<Token> lex(const std::string& text) {
 // ---------------------------------------------------------------------------------------------
 // Parser: builds a tree in post-order (children before parents), folding literal-only nodes.
 
-enum class NodeKind { kLit, kVar, kConst, kNeg, kFunc, kPow, kAdd, kSub, kMul, kDiv };
+enum class NodeKind { kLit, kVar, kConst, kNeg, kFunc, kPow, kPowReal, kAdd, kSub, kMul, kDiv };
 
 struct Node {
   explicit Node(NodeKind k) : kind(k) {}
   NodeKind kind;
   int a = -1, b = -1;  // children
   int n = 0;           // kConst: constant index; kFunc: Func; kPow: exponent
-  Quat lit;            // kLit
+  Quat lit;            // kLit: the value; kPowReal: the exponent in lit.w
 };
 
 Quat apply_func(Func f, const Quat& a) {
@@ -186,8 +239,9 @@ Quat apply_func(Func f, const Quat& a) {
       return Quat(abs(a));
     case Func::kSqr:
       return sqr(a);
+    default:  // the analytic functions: the code eval() runs
+      return eval_analytic(kFuncCodes[static_cast<int>(f)], a, 0);
   }
-  return a;
 }
 
 /// a^n by left-to-right binary exponentiation; the generated code performs exactly these steps,
@@ -257,23 +311,31 @@ class Parser {
   }
   bool is_lit(int id) const { return nodes[id].kind == NodeKind::kLit; }
 
-  int unary(NodeKind kind, int a, int n = 0) {
+  /// A unary node; kPowReal takes its exponent in `x`.
+  int unary(NodeKind kind, int a, int n = 0, double x = 0) {
     if (is_lit(a)) {
-      const Quat& q = nodes[a].lit;
+      const Quat q = nodes[a].lit;
+      Quat r;
       switch (kind) {
         case NodeKind::kNeg:
           return literal(-q);
         case NodeKind::kFunc:
-          return literal(apply_func(static_cast<Func>(n), q));
+          r = apply_func(static_cast<Func>(n), q);
+          break;
         case NodeKind::kPow:
           return literal(apply_pow(q, n));
-        default:
+        default:  // kPowReal
+          r = eval_analytic(OpCode::kPowReal, q, x);
           break;
       }
+      // sqrt(-1), log(-2), (-4)^0.5: a coefficient that is not real, though written with reals.
+      if (is_real(q) && !is_real(r)) program_.real_literals = false;
+      return literal(r);
     }
     Node node(kind);
     node.a = a;
     node.n = n;
+    node.lit = Quat(x);
     return add(node);
   }
 
@@ -339,20 +401,18 @@ class Parser {
       ++pos_;
     }
     const Token& t = peek();
-    if (t.kind != TokenKind::kNumber || !t.integer) {
-      fail(t, "expected an integer exponent after '^'");
+    if (t.kind != TokenKind::kNumber || t.unit != 0) {
+      fail(t, "expected a literal real exponent after '^', such as 2, -1.5 or 0.5");
     }
     ++pos_;
-    // Digits only, so a long spelling is a big number (leading zeros aside).
-    std::size_t first = t.begin;
-    while (first + 1 < t.end && text_[first] == '0') ++first;
-    int n = kMaxExponent + 1;
-    if (t.end - first <= 3) n = std::atoi(text_.substr(first, t.end - first).c_str());
-    if (n > kMaxExponent) {
+    if (!(t.value <= kMaxExponent)) {
       fail(t, "expected an exponent between -" + std::to_string(kMaxExponent) + " and " +
                   std::to_string(kMaxExponent));
     }
-    if (negative) n = -n;
+    const double x = negative ? -t.value : t.value;
+    if (x != std::trunc(x)) return unary(NodeKind::kPowReal, base, 0, x);
+    // An integer value (2, 2.0, 2e0): the exact path of repeated squaring.
+    const int n = static_cast<int>(x);
     if (n == 0) return literal(Quat(1));  // h^0 = 1 for every h, as for real numbers
     if (n == 1) return base;
     return unary(NodeKind::kPow, base, n);
@@ -487,6 +547,7 @@ class CodeGen {
         return 0;
       case NodeKind::kNeg:
       case NodeKind::kFunc:
+      case NodeKind::kPowReal:
         return std::max(need_[n.a], 1);
       case NodeKind::kPow:
         return std::max(need_[n.a], 1) + 1;
@@ -549,11 +610,15 @@ class CodeGen {
         return d;
       }
       case NodeKind::kFunc: {
-        static constexpr OpCode kCodes[] = {OpCode::kConj, OpCode::kInv, OpCode::kNorm,
-                                            OpCode::kAbs, OpCode::kSqr};
         const int s = gen(n.a);
         const int d = dest_for(s);
-        emit(kCodes[n.n], d, s);
+        emit(kFuncCodes[n.n], d, s);
+        return d;
+      }
+      case NodeKind::kPowReal: {
+        const int s = gen(n.a);
+        const int d = dest_for(s);
+        emit(OpCode::kPowReal, d, s, 0, n.lit);  // the exponent in lit.w
         return d;
       }
       case NodeKind::kPow:
@@ -688,9 +753,12 @@ void check_constant_names(const std::vector<std::string>& names) {
                          "digit");
     }
     if (name == "h" || name == "i" || name == "j" || name == "k" || is_function_name(name)) {
+      std::string functions;
+      for (const FuncName& f : kFunctions) functions += std::string(", ") + f.name;
       throw InvalidInput("formula constant '" + name +
                          "': expected a name other than h (the variable), i, j, k (the units) "
-                         "and conj, inv, norm, abs, sqr (the functions)");
+                         "and" +
+                         functions.substr(1) + " (the functions)");
     }
     for (std::size_t j = 0; j < i; ++j) {
       if (names[j] == name) {
@@ -811,6 +879,9 @@ Quat Formula::eval(const Quat& h, const Quat* constants) const {
       case OpCode::kScaleAddReal:
         r = op.lit.w * a;
         r.w += op.lit.x;
+        break;
+      default:  // the analytic functions, out of line so that the loop stays tight
+        r = detail::eval_analytic(op.code, a, op.lit.w);
         break;
     }
     regs[op.dst].q = r;

@@ -6,18 +6,27 @@
 ///   expr    := term (('+' | '-') term)*
 ///   term    := unary (('*' | '/') unary)*          a/b means a * b^-1 (right division)
 ///   unary   := '-' unary | power                   -h^2 = -(h^2); there is no unary '+'
-///   power   := primary ('^' ['-'] integer)?        integer powers by squaring; h^-2 = inv(h^2);
-///                                                  |n| <= 64, h^0 = 1; powers do not chain
+///   power   := primary ('^' ['-'] number)?         a literal real exponent x, |x| <= 64; an
+///                                                  integer value (2, 2.0, 2e0) is a power by
+///                                                  squaring (h^-2 = inv(h^2), h^0 = 1), any
+///                                                  other a real power exp(x log h); powers
+///                                                  do not chain (write (h^0.5)^2)
 ///   primary := number | quaternion literal | name | func '(' expr ')' | '(' expr ')'
 ///   number  := decimal real, e.g. 2, 0.5, 1e-3, .5; the imaginary units i, j, k may follow a
 ///              number directly (3i, 0.5k) or stand alone (i, j, k)
 ///   quaternion literal := '[' real ',' real ',' real ',' real ']'  (w, x, y, z; each real may
 ///              carry a sign)
 ///   func    := conj | inv | norm (|q|^2 as a real quaternion) | abs (|q|) | sqr
+///              | exp | log | sqrt | sin | cos | tan | sinh | cosh | tanh
+/// The analytic functions and real powers extend the complex ones: q = a + t u (t = |vector
+/// part|, u its direction, u = i when t = 0) behaves as the complex a + t i, so log, sqrt and
+/// real powers are principal branches and give log(-1) = pi i, sqrt(-4) = 2i (docs/formula.md
+/// lists domains, poles and costs).
 /// Names are the variable `h` and any constant given to compile(). Products are evaluated in
 /// the order written: p*h^2 multiplies p on the left. There is no implicit multiplication:
 /// `2h` and `3 i` are errors, only the number-unit form `3i` is one token.
-/// Division by a zero quaternion is not an error: it yields non-finite components.
+/// Division by a zero quaternion is not an error: it yields non-finite components, and so do
+/// the other poles (log 0, 0^-1.5) and overflow (exp(800)).
 /// Limits: 4096 characters, 64 nested parentheses/calls/signs, 32 registers (h, the constants
 /// used and intermediate values); beyond them compile() throws InvalidInput.
 #include <cstddef>
@@ -60,9 +69,11 @@ class Formula {
   /// name appears in the text.
   const std::vector<bool>& constants_used() const;
   /// True when every literal written in the text is real (no i, j, k, no quaternion literal
-  /// with a non-zero imaginary part) and every used constant has a zero imaginary part. Then
+  /// with a non-zero imaginary part), every literal-only part folds to a real value (not
+  /// sqrt(-1) or log(-2)) and every used constant has a zero imaginary part. Then
   /// f(u h u^-1) = u f(h) u^-1 for unit quaternions u: f commutes with rotations of the
-  /// imaginary part (the rotation-symmetry facts of DESIGN.md).
+  /// imaginary part (the rotation-symmetry facts of DESIGN.md), except where log, sqrt or a
+  /// real power meets a negative real value, where the axis i is taken.
   /// @param[in] constants  constant_names().size() quaternions, as for eval()
   bool has_real_coefficients(const Quat* constants) const;
   /// Number of register operations one eval() runs (h^3 takes 2; literal-only parts fold to 0).
