@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "field/program.h"
+#include "field/quat_functions.h"
 #include "hwy/targets.h"
 #include "qjulia/field/classify.h"
 #include "qjulia/field/params.h"
@@ -20,7 +21,8 @@ namespace {
 
 // Quaternion arithmetic in two roundings of double precision: as the scalar path computes
 // (kFused = false: separate products and sums, division by |a|^2), and as the vector kernel
-// computes (kFused = true: fused multiply-adds in the same order, one reciprocal of |a|^2).
+// computes (kFused = true: fused multiply-adds in the same order, one reciprocal of |a|^2, and
+// the analytic functions an ulp off in their argument).
 // Where the two give different F, F depends on the last bits and no two correct evaluators
 // need agree.
 template <bool kFused>
@@ -46,6 +48,13 @@ struct Arith {
     const double t = a.w + a.w;
     return {nmadd(a.z, a.z, nmadd(a.y, a.y, nmadd(a.x, a.x, a.w * a.w))), t * a.x, t * a.y,
             t * a.z};
+  }
+  // The analytic functions are the scalar ones; the second rounding moves their argument by an
+  // ulp, as the vector functions' own rounding does.
+  static Quat arg(const Quat& a) {
+    if (!kFused) return a;
+    return {std::nextafter(a.w, INFINITY), std::nextafter(a.x, INFINITY),
+            std::nextafter(a.y, INFINITY), std::nextafter(a.z, INFINITY)};
   }
   static Quat inv(const Quat& a) {
     if (!kFused) return qjulia::inv(a);
@@ -123,8 +132,35 @@ Quat eval(const Formula::Program& p, const Quat& h, const std::vector<Quat>& con
         v = l.w * a;
         v.w += l.x;
         break;
-      default:
-        v = {NAN, NAN, NAN, NAN};
+      case OpCode::kExp:
+        v = detail::qexp(A::arg(a));
+        break;
+      case OpCode::kLog:
+        v = detail::qlog(A::arg(a));
+        break;
+      case OpCode::kSqrt:
+        v = detail::qsqrt(A::arg(a));
+        break;
+      case OpCode::kSin:
+        v = detail::qsin(A::arg(a));
+        break;
+      case OpCode::kCos:
+        v = detail::qcos(A::arg(a));
+        break;
+      case OpCode::kTan:
+        v = detail::qtan(A::arg(a));
+        break;
+      case OpCode::kSinh:
+        v = detail::qsinh(A::arg(a));
+        break;
+      case OpCode::kCosh:
+        v = detail::qcosh(A::arg(a));
+        break;
+      case OpCode::kTanh:
+        v = detail::qtanh(A::arg(a));
+        break;
+      case OpCode::kPowReal:
+        v = detail::qpow(A::arg(a), l.w);
         break;
     }
     r[op.dst] = v;
@@ -206,7 +242,7 @@ double reference_field(const Params& p, double x, double y, double z) {
 
 // Random expressions in h and the constants over the whole language the kernel covers.
 std::string random_formula(std::mt19937_64& rng, int depth) {
-  std::uniform_int_distribution<int> pick(0, depth <= 0 ? 3 : 13);
+  std::uniform_int_distribution<int> pick(0, depth <= 0 ? 3 : 14);
   std::uniform_real_distribution<double> lit(-1.5, 1.5);
   auto signed_number = [&] {
     char buf[32];
@@ -242,9 +278,15 @@ std::string random_formula(std::mt19937_64& rng, int depth) {
     }
     case 10:
       return "-" + random_formula(rng, depth - 1);
+    case 11: {
+      static const char* const e[] = {"0.5", "-0.5", "1.5", "-1.5", "2.5"};
+      return "(" + random_formula(rng, depth - 1) + ")^" +
+             e[std::uniform_int_distribution<int>(0, 4)(rng)];
+    }
     default: {
-      static const char* const f[] = {"conj", "inv", "norm", "abs", "sqr"};
-      return std::string(f[std::uniform_int_distribution<int>(0, 4)(rng)]) + "(" +
+      static const char* const f[] = {"conj", "inv", "norm", "abs", "sqr",  "exp",  "log",
+                                      "sqrt", "sin", "cos",  "tan", "sinh", "cosh", "tanh"};
+      return std::string(f[std::uniform_int_distribution<int>(0, 13)(rng)]) + "(" +
              random_formula(rng, depth - 1) + ")";
     }
   }
@@ -333,6 +375,86 @@ TEST(Kernel, RandomFormulasMatchTheScalarReferenceOnEveryTarget) {
   }
   // The comparison must cover the points, not skip them.
   EXPECT_LT(excluded / trials, 0.05);
+}
+
+TEST(Kernel, AnalyticFunctionsMatchTheScalarOnesOnEveryTarget) {
+  // Per component within 1e-12 * max(1, |f|), at points at least 1e-6 from the branch cut (the
+  // negative real axis, for log, sqrt and real powers), with magnitudes from tiny to those that
+  // send lanes to the scalar path.
+  using detail::OpCode;
+  std::mt19937_64 rng(3);
+  std::vector<Quat> in;
+  for (int i = 0; i < 20000; ++i) {
+    const double scale = std::pow(10.0, std::uniform_real_distribution<double>(-8, 3)(rng));
+    std::normal_distribution<double> g(0, 1);
+    Quat q(scale * g(rng), scale * g(rng), scale * g(rng), scale * g(rng));
+    if (i % 10 == 0) q.x = q.y = q.z = 0;  // real points (t = 0): u = i
+    const double t = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
+    if (q.w < 0 && t < 1e-6) q.w = -q.w;  // away from the cut
+    in.push_back(q);
+  }
+  in.push_back(Quat(0.5, 800, 0, 0));  // beyond the vector sin/cos range: the scalar path
+  in.push_back(Quat(750, 0.1, 0, 0));  // exp overflows
+  in.push_back(Quat(0, 0, 0, 0));
+  const OpCode codes[] = {OpCode::kExp,  OpCode::kLog,     OpCode::kSqrt,   OpCode::kSin,
+                          OpCode::kCos,  OpCode::kTan,     OpCode::kSinh,   OpCode::kCosh,
+                          OpCode::kTanh, OpCode::kPowReal, OpCode::kPowReal};
+  const double exponents[] = {0, 0, 0, 0, 0, 0, 0, 0, 0, 1.5, -0.5};
+  for (std::int64_t target : detail::kernel_dispatch_targets()) {
+    hwy::SetSupportedTargetsForTest(target);
+    for (int c = 0; c < 11; ++c) {
+      const std::vector<Quat> got = detail::kernel_analytic(codes[c], in, exponents[c]);
+      int bad = 0;
+      for (std::size_t i = 0; i < in.size() && bad < 3; ++i) {
+        Quat want;
+        switch (codes[c]) {
+          case OpCode::kExp:
+            want = detail::qexp(in[i]);
+            break;
+          case OpCode::kLog:
+            want = detail::qlog(in[i]);
+            break;
+          case OpCode::kSqrt:
+            want = detail::qsqrt(in[i]);
+            break;
+          case OpCode::kSin:
+            want = detail::qsin(in[i]);
+            break;
+          case OpCode::kCos:
+            want = detail::qcos(in[i]);
+            break;
+          case OpCode::kTan:
+            want = detail::qtan(in[i]);
+            break;
+          case OpCode::kSinh:
+            want = detail::qsinh(in[i]);
+            break;
+          case OpCode::kCosh:
+            want = detail::qcosh(in[i]);
+            break;
+          case OpCode::kTanh:
+            want = detail::qtanh(in[i]);
+            break;
+          default:
+            want = detail::qpow(in[i], exponents[c]);
+            break;
+        }
+        const double m = std::max(1.0, abs(want));
+        for (int k = 0; k < 4; ++k) {
+          const bool same_inf = std::isinf(want[k]) && want[k] == got[i][k];
+          const bool both_nan = std::isnan(want[k]) && std::isnan(got[i][k]);
+          if (!(std::abs(got[i][k] - want[k]) <= 1e-12 * m || same_inf || both_nan)) {
+            ADD_FAILURE() << hwy::TargetName(target) << " code " << c << " at (" << in[i].w << ", "
+                          << in[i].x << ", " << in[i].y << ", " << in[i].z << ") component " << k
+                          << ": " << got[i][k] << " vs " << want[k];
+            ++bad;
+            break;
+          }
+        }
+      }
+    }
+  }
+  hwy::SetSupportedTargetsForTest(0);
 }
 
 TEST(Kernel, BatchesOfAnySizeGiveThePointwiseValues) {

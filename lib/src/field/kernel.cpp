@@ -16,6 +16,8 @@
 #include <memory>
 #include <vector>
 
+#include "field/quat_functions.h"
+
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "field/kernel.cpp"
 // AVX2 is the baseline of the vector path, AVX-512 where the CPU has it; without AVX2 the
@@ -94,6 +96,195 @@ HWY_INLINE Q inv(const Q& a) {
   const V r = hn::Div(hn::Set(d, 1.0), norm2(a));
   return {hn::Mul(a.w, r), hn::Neg(hn::Mul(a.x, r)), hn::Neg(hn::Mul(a.y, r)),
           hn::Neg(hn::Mul(a.z, r))};
+}
+
+// The analytic functions. q = a + t u (t = |vector part|, u its direction, u = i when t = 0)
+// behaves as the complex number a + t i: f(q) = Re f(a + t i) + u Im f(a + t i). Lanes outside
+// the ranges where Highway's functions hold (or non-finite) take the scalar reference.
+struct Plane {
+  V a, t, ux, uy, uz;
+};
+
+HWY_INLINE Plane split(const Q& q) {
+  const D d;
+  const V t2 = hn::MulAdd(q.z, q.z, hn::MulAdd(q.y, q.y, hn::Mul(q.x, q.x)));
+  const V t = hn::Sqrt(t2);
+  const auto pos = hn::Gt(t, hn::Zero(d));
+  const V inv =
+      hn::IfThenElseZero(pos, hn::Div(hn::Set(d, 1.0), hn::IfThenElse(pos, t, hn::Set(d, 1.0))));
+  return {q.w, t, hn::IfThenElse(pos, hn::Mul(q.x, inv), hn::Set(d, 1.0)), hn::Mul(q.y, inv),
+          hn::Mul(q.z, inv)};
+}
+
+HWY_INLINE Q join(const Plane& p, V re, V im) {
+  return {re, hn::Mul(im, p.ux), hn::Mul(im, p.uy), hn::Mul(im, p.uz)};
+}
+
+// sinh and cosh of a real s with |s| <= 700, from one expm1 (no cancellation near 0).
+HWY_INLINE void sinh_cosh(V s, V* sh, V* ch) {
+  const D d;
+  const V half = hn::Set(d, 0.5), one = hn::Set(d, 1.0);
+  const V e = hn::Expm1(d, hn::Abs(s));
+  const V ep1 = hn::Add(e, one);
+  const V r = hn::Div(one, ep1);
+  *sh = hn::CopySign(hn::Mul(half, hn::Add(e, hn::Mul(e, r))), s);
+  *ch = hn::Mul(half, hn::Add(ep1, r));
+}
+
+// atan2(y, x) for y >= 0.
+HWY_INLINE V atan2_upper(V y, V x) {
+  const D d;
+  const V ax = hn::Abs(x);
+  const V big = hn::Max(ax, y), small = hn::Min(ax, y);
+  const auto nonzero = hn::Gt(big, hn::Zero(d));
+  const V r = hn::Atan(d, hn::Div(small, hn::IfThenElse(nonzero, big, hn::Set(d, 1.0))));
+  const V half_pi = hn::Set(d, 1.5707963267948966192), pi = hn::Set(d, 3.1415926535897932385);
+  V theta = hn::IfThenElse(hn::Gt(y, ax), hn::Sub(half_pi, r), r);
+  theta = hn::IfThenElse(hn::Lt(x, hn::Zero(d)), hn::Sub(pi, theta), theta);
+  return hn::IfThenElseZero(nonzero, theta);
+}
+
+HWY_INLINE Q analytic(OpCode code, const Q& q, double x) {
+  const D d;
+  const Plane p = split(q);
+  const V zero = hn::Zero(d), one = hn::Set(d, 1.0), half = hn::Set(d, 0.5);
+  auto within = [&](V v, double lim) { return hn::Le(hn::Abs(v), hn::Set(d, lim)); };
+  // Lanes for the scalar path: non-finite input, extreme magnitudes, or beyond the ranges.
+  M ok = hn::And(hn::And(hn::IsFinite(p.a), hn::IsFinite(p.t)),
+                 hn::And(within(p.a, 1e150), within(p.t, 1e150)));
+  Q r;
+  switch (code) {
+    case OpCode::kExp: {
+      ok = hn::And(ok, hn::And(hn::Le(p.a, hn::Set(d, 700.0)), within(p.t, 3.9e4)));
+      const V e = hn::Exp(d, p.a);
+      r = join(p, hn::Mul(e, hn::Cos(d, p.t)), hn::Mul(e, hn::Sin(d, p.t)));
+      break;
+    }
+    case OpCode::kLog: {
+      const V n2 = hn::MulAdd(p.t, p.t, hn::Mul(p.a, p.a));
+      ok = hn::And(ok, hn::Gt(n2, hn::Set(d, 1e-300)));
+      r = join(p, hn::Mul(half, hn::Log(d, hn::IfThenElse(ok, n2, one))), atan2_upper(p.t, p.a));
+      break;
+    }
+    case OpCode::kSqrt: {
+      const V m = hn::Sqrt(hn::MulAdd(p.t, p.t, hn::Mul(p.a, p.a)));
+      ok = hn::And(ok, hn::Gt(m, hn::Set(d, 1e-300)));
+      const auto pos = hn::Ge(p.a, zero);
+      const V s = hn::Sqrt(hn::Mul(half, hn::IfThenElse(pos, hn::Add(m, p.a), hn::Sub(m, p.a))));
+      const V other = hn::Div(p.t, hn::Add(s, s));
+      r = join(p, hn::IfThenElse(pos, s, other), hn::IfThenElse(pos, other, s));
+      break;
+    }
+    case OpCode::kSin:
+    case OpCode::kCos: {
+      ok = hn::And(ok, hn::And(within(p.a, 3.9e4), within(p.t, 700.0)));
+      V sh, ch;
+      sinh_cosh(p.t, &sh, &ch);
+      const V sa = hn::Sin(d, p.a), ca = hn::Cos(d, p.a);
+      r = code == OpCode::kSin ? join(p, hn::Mul(sa, ch), hn::Mul(ca, sh))
+                               : join(p, hn::Mul(ca, ch), hn::Neg(hn::Mul(sa, sh)));
+      break;
+    }
+    case OpCode::kTan: {
+      // (sin a cos a + i sinh t cosh t) / (cos^2 a + sinh^2 t): no cancellation near the poles.
+      ok = hn::And(ok, hn::And(within(p.a, 3.9e4), within(p.t, 350.0)));
+      V sh, ch;
+      sinh_cosh(p.t, &sh, &ch);
+      const V sa = hn::Sin(d, p.a), ca = hn::Cos(d, p.a);
+      const V den = hn::MulAdd(sh, sh, hn::Mul(ca, ca));
+      const V inv = hn::Div(one, den);
+      r = join(p, hn::Mul(hn::Mul(sa, ca), inv), hn::Mul(hn::Mul(sh, ch), inv));
+      break;
+    }
+    case OpCode::kSinh:
+    case OpCode::kCosh: {
+      ok = hn::And(ok, hn::And(within(p.a, 700.0), within(p.t, 3.9e4)));
+      V sh, ch;
+      sinh_cosh(p.a, &sh, &ch);
+      const V st = hn::Sin(d, p.t), ct = hn::Cos(d, p.t);
+      r = code == OpCode::kSinh ? join(p, hn::Mul(sh, ct), hn::Mul(ch, st))
+                                : join(p, hn::Mul(ch, ct), hn::Mul(sh, st));
+      break;
+    }
+    case OpCode::kTanh: {
+      // (sinh a cosh a + i sin t cos t) / (sinh^2 a + cos^2 t).
+      ok = hn::And(ok, hn::And(within(p.a, 350.0), within(p.t, 3.9e4)));
+      V sh, ch;
+      sinh_cosh(p.a, &sh, &ch);
+      const V st = hn::Sin(d, p.t), ct = hn::Cos(d, p.t);
+      const V inv = hn::Div(one, hn::MulAdd(ct, ct, hn::Mul(sh, sh)));
+      r = join(p, hn::Mul(hn::Mul(sh, ch), inv), hn::Mul(hn::Mul(st, ct), inv));
+      break;
+    }
+    default: {  // kPowReal: exp(x log q)
+      const V n2 = hn::MulAdd(p.t, p.t, hn::Mul(p.a, p.a));
+      ok = hn::And(ok, hn::Gt(n2, hn::Set(d, 1e-300)));
+      const V xv = hn::Set(d, x);
+      const V lr = hn::Mul(xv, hn::Mul(half, hn::Log(d, hn::IfThenElse(ok, n2, one))));
+      const V li = hn::Mul(xv, atan2_upper(p.t, p.a));
+      ok = hn::And(ok, hn::And(hn::Le(lr, hn::Set(d, 700.0)), within(li, 3.9e4)));
+      const V e = hn::Exp(d, hn::IfThenElse(ok, lr, zero));
+      r = join(p, hn::Mul(e, hn::Cos(d, li)), hn::Mul(e, hn::Sin(d, li)));
+      break;
+    }
+  }
+  if (HWY_UNLIKELY(!hn::AllTrue(d, ok))) {
+    HWY_ALIGN double w[8], xs[8], ys[8], zs[8];
+    hn::Store(r.w, d, w);
+    hn::Store(r.x, d, xs);
+    hn::Store(r.y, d, ys);
+    hn::Store(r.z, d, zs);
+    HWY_ALIGN double in[4][8];
+    hn::Store(q.w, d, in[0]);
+    hn::Store(q.x, d, in[1]);
+    hn::Store(q.y, d, in[2]);
+    hn::Store(q.z, d, in[3]);
+    std::uint8_t bits[8] = {};
+    hn::StoreMaskBits(d, hn::Not(ok), bits);
+    for (std::size_t i = 0; i < hn::Lanes(d); ++i) {
+      if (!(bits[i / 8] & (1u << (i % 8)))) continue;
+      const Quat a(in[0][i], in[1][i], in[2][i], in[3][i]);
+      Quat v;
+      switch (code) {
+        case OpCode::kExp:
+          v = qexp(a);
+          break;
+        case OpCode::kLog:
+          v = qlog(a);
+          break;
+        case OpCode::kSqrt:
+          v = qsqrt(a);
+          break;
+        case OpCode::kSin:
+          v = qsin(a);
+          break;
+        case OpCode::kCos:
+          v = qcos(a);
+          break;
+        case OpCode::kTan:
+          v = qtan(a);
+          break;
+        case OpCode::kSinh:
+          v = qsinh(a);
+          break;
+        case OpCode::kCosh:
+          v = qcosh(a);
+          break;
+        case OpCode::kTanh:
+          v = qtanh(a);
+          break;
+        default:
+          v = qpow(a, x);
+          break;
+      }
+      w[i] = v.w;
+      xs[i] = v.x;
+      ys[i] = v.y;
+      zs[i] = v.z;
+    }
+    r = {hn::Load(d, w), hn::Load(d, xs), hn::Load(d, ys), hn::Load(d, zs)};
+  }
+  return r;
 }
 
 // The lanes of a register: four component arrays.
@@ -840,7 +1031,8 @@ class Machine {
         });
         break;
       }
-      default:  // analytic functions: kernel_supports() keeps such programs on the scalar path
+      default:  // the analytic functions
+        each([&](std::size_t o) { dst.store(o, analytic(op.code, a.load(o), op.lit.w)); });
         break;
     }
   }
@@ -915,6 +1107,25 @@ std::uint64_t KernelField(const KernelSetup& s, const double* x, const double* y
   return machine->run(s, x, y, z, n, out);
 }
 
+void KernelAnalytic(int code, const Quat* in, std::size_t n, double exponent, Quat* out) {
+  const D d;
+  const std::size_t nl = hn::Lanes(d);
+  HWY_ALIGN double c[4][8];
+  for (std::size_t i = 0; i < n; i += nl) {
+    const std::size_t m = std::min(nl, n - i);
+    for (std::size_t q = 0; q < nl; ++q)
+      for (int k = 0; k < 4; ++k) c[k][q] = in[i + std::min(q, m - 1)][k];
+    const Q v = analytic(
+        static_cast<OpCode>(code),
+        {hn::Load(d, c[0]), hn::Load(d, c[1]), hn::Load(d, c[2]), hn::Load(d, c[3])}, exponent);
+    hn::Store(v.w, d, c[0]);
+    hn::Store(v.x, d, c[1]);
+    hn::Store(v.y, d, c[2]);
+    hn::Store(v.z, d, c[3]);
+    for (std::size_t q = 0; q < m; ++q) out[i + q] = Quat(c[0][q], c[1][q], c[2][q], c[3][q]);
+  }
+}
+
 }  // namespace HWY_NAMESPACE
 }  // namespace qjulia::detail
 HWY_AFTER_NAMESPACE();
@@ -923,6 +1134,14 @@ HWY_AFTER_NAMESPACE();
 namespace qjulia::detail {
 
 HWY_EXPORT(KernelField);
+HWY_EXPORT(KernelAnalytic);
+
+std::vector<Quat> kernel_analytic(OpCode code, const std::vector<Quat>& in, double exponent) {
+  std::vector<Quat> out(in.size());
+  HWY_DYNAMIC_DISPATCH(KernelAnalytic)
+  (static_cast<int>(code), in.data(), in.size(), exponent, out.data());
+  return out;
+}
 
 namespace {
 
@@ -1044,11 +1263,7 @@ std::string kernel_target() {
   return hwy::TargetName(best & -best);
 }
 
-bool kernel_supports(const Op* ops, int op_count) {
-  for (int i = 0; i < op_count; ++i)
-    if (ops[i].code >= OpCode::kExp) return false;
-  return true;
-}
+bool kernel_supports(const Op*, int) { return true; }
 
 std::uint64_t kernel_field(const KernelSetup& setup, const double* x, const double* y,
                            const double* z, std::size_t n, double* out) {

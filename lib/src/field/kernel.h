@@ -88,4 +88,8 @@ bool kernel_supports(const Op* ops, int op_count);
 std::uint64_t kernel_field(const KernelSetup& setup, const double* x, const double* y,
                            const double* z, std::size_t n, double* out);
 
+/// One analytic function (kExp .. kPowReal, the exponent for the latter) on each quaternion, by
+/// the vector code of the current target: for testing it against the scalar functions.
+std::vector<Quat> kernel_analytic(OpCode code, const std::vector<Quat>& in, double exponent);
+
 }  // namespace qjulia::detail

@@ -134,7 +134,11 @@ struct BrickSampler::Impl {
   struct Around {
     const Brick* n[27] = {};
   };
-  std::function<const Brick*(std::uint64_t)> find;
+  const std::unordered_map<std::uint64_t, std::unique_ptr<Brick>>* map = nullptr;
+  const Brick* find(std::uint64_t key) const {
+    const auto it = map->find(key);
+    return it == map->end() ? nullptr : it->second.get();
+  }
   const float* lattice = nullptr;
   const float* centres = nullptr;
   std::function<std::size_t(int, int, int)> lattice_at;
@@ -142,6 +146,7 @@ struct BrickSampler::Impl {
 
   Around around(const Brick& br) const {
     Around a;
+    if (!map) return a;
     for (int dx = -1; dx <= 1; ++dx)
       for (int dy = -1; dy <= 1; ++dy)
         for (int dz = -1; dz <= 1; ++dz)
@@ -200,14 +205,13 @@ struct BrickSampler::Impl {
   // Makes the listed local points of `brick` known: copied from a neighbour or the lattice, or
   // queued in the batch for evaluation.
   template <class F>
-  void need(Brick& br, Batch& b, F&& each_point) const {
-    const Around a = find ? around(br) : Around{};
+  void need(Brick& br, const Around& a, Batch& b, F&& each_point) const {
     each_point([&](int li, int lj, int lk) {
       const int p = point_index(li, lj, lk);
       if (br.known.test(p)) return;
       br.known.set(p);
       const int g[3] = {br.at.x * kBrick + li, br.at.y * kBrick + lj, br.at.z * kBrick + lk};
-      if (g[0] >= 0 && g[1] >= 0 && g[2] >= 0 && lookup(br, a, g, &br.value[p])) return;
+      if (map && g[0] >= 0 && g[1] >= 0 && g[2] >= 0 && lookup(br, a, g, &br.value[p])) return;
       queue(b, g[0], g[1], g[2], &br.value[p]);
     });
   }
@@ -233,7 +237,8 @@ struct BrickSampler::Impl {
 
   // Level 8 of a candidate brick: its corners; true when it is to be refined.
   bool flag8(Brick& br, Batch& b) {
-    need(br, b, [](auto&& at) {
+    const Around a = around(br);
+    need(br, a, b, [](auto&& at) {
       for (int d = 0; d < 8; ++d) at((d & 1) * kBrick, ((d >> 1) & 1) * kBrick, (d >> 2) * kBrick);
     });
     run(b);
@@ -243,9 +248,10 @@ struct BrickSampler::Impl {
   // Runs the refinement of a brick from its requests; appends requests to its neighbours.
   void visit(Brick& br, std::uint8_t seed4, const std::vector<std::uint16_t>& seed_cells,
              bool refined8, Batch& b, std::vector<Request>& out) {
+    const Around a = around(br);
     // Level 4: the 27 points at stride 4; flagged 4-cells dilated by one 4-cell.
     if (refined8 && !br.started) {
-      need(br, b, [](auto&& at) {
+      need(br, a, b, [](auto&& at) {
         for (int i = 0; i <= 8; i += 4)
           for (int j = 0; j <= 8; j += 4)
             for (int k = 0; k <= 8; k += 4) at(i, j, k);
@@ -280,7 +286,7 @@ struct BrickSampler::Impl {
     // Level 2: the 27 points at stride 2 of each new 4-cell; its 2-cells flagged.
     const std::uint8_t new4 = br.refine4 & static_cast<std::uint8_t>(~br.done4);
     if (new4) {
-      need(br, b, [&](auto&& at) {
+      need(br, a, b, [&](auto&& at) {
         for (int q = 0; q < 8; ++q) {
           if (!(new4 >> q & 1)) continue;
           const int o[3] = {(q & 1) * 4, ((q >> 1) & 1) * 4, (q >> 2) * 4};
@@ -305,7 +311,7 @@ struct BrickSampler::Impl {
     std::vector<std::uint16_t> frontier(seed_cells);
     const std::uint64_t new2 = br.refine2 & ~br.done2;
     if (new2) {
-      need(br, b, [&](auto&& at) {
+      need(br, a, b, [&](auto&& at) {
         for (int t = 0; t < 64; ++t) {
           if (!(new2 >> t & 1)) continue;
           const int o[3] = {(t / 16) * 2, ((t / 4) % 4) * 2, (t % 4) * 2};
@@ -324,7 +330,7 @@ struct BrickSampler::Impl {
       }
       br.done2 |= new2;
     }
-    close(br, frontier, b, out);
+    close(br, a, frontier, b, out);
   }
 
   bool in_range(const int nb[3]) const {
@@ -335,7 +341,8 @@ struct BrickSampler::Impl {
 
   // The closure: a crossing cell whose face has a sign change continues into the cell across
   // that face, which is then examined too (in this brick, or by a request to the neighbour).
-  void close(Brick& br, std::vector<std::uint16_t> frontier, Batch& b, std::vector<Request>& out) {
+  void close(Brick& br, const Around& a, std::vector<std::uint16_t> frontier, Batch& b,
+             std::vector<Request>& out) {
     std::vector<std::uint16_t> next;
     while (!frontier.empty()) {
       // Corners of the cells not yet visited.
@@ -346,7 +353,7 @@ struct BrickSampler::Impl {
           frontier[keep++] = c;
         }
       frontier.resize(keep);
-      need(br, b, [&](auto&& at) {
+      need(br, a, b, [&](auto&& at) {
         for (std::uint16_t c : frontier) {
           const int i = c / 64, j = (c / 8) % 8, k = c % 8;
           for (int d = 0; d < 8; ++d) at(i + (d & 1), j + ((d >> 1) & 1), k + (d >> 2));
@@ -369,25 +376,30 @@ struct BrickSampler::Impl {
               br.value[point_index(ci[0] + (d & 1), ci[1] + ((d >> 1) & 1), ci[2] + (d >> 2))] <= 0;
         if (inside == 0 || inside == 8) continue;
         br.surface.set(c);
-        for (int a = 0; a < 3; ++a)
+        for (int axis = 0; axis < 3; ++axis)
           for (int t = 0; t < 2; ++t) {
             int face_inside = 0;
             for (int d = 0; d < 8; ++d)
-              if (((d >> a) & 1) == t) face_inside += in[d];
+              if (((d >> axis) & 1) == t) face_inside += in[d];
             if (face_inside == 0 || face_inside == 4) continue;
             int n[3] = {ci[0], ci[1], ci[2]};
-            n[a] += t ? 1 : -1;
-            const int gn = g[a] + (t ? 1 : -1);
-            if (gn < -1 || gn >= geo.points[a]) continue;
-            if (n[a] >= 0 && n[a] < kBrick) {
+            n[axis] += t ? 1 : -1;
+            const int gn = g[axis] + (t ? 1 : -1);
+            if (gn < -1 || gn >= geo.points[axis]) continue;
+            if (n[axis] >= 0 && n[axis] < kBrick) {
               const std::uint16_t nc = static_cast<std::uint16_t>(cell_index(n[0], n[1], n[2]));
               if (!br.visited.test(nc)) next.push_back(nc);
             } else {
               int nb[3] = {br.at.x, br.at.y, br.at.z};
-              nb[a] += t ? 1 : -1;
-              n[a] = t ? 0 : kBrick - 1;
+              nb[axis] += t ? 1 : -1;
+              n[axis] = t ? 0 : kBrick - 1;
+              const std::uint16_t nc = static_cast<std::uint16_t>(cell_index(n[0], n[1], n[2]));
+              // A neighbour that has looked at the cell needs no request.
+              const Brick* known = a.n[(nb[0] - br.at.x + 1) * 9 + (nb[1] - br.at.y + 1) * 3 +
+                                       (nb[2] - br.at.z + 1)];
+              if (known && known->visited.test(nc)) continue;
               Request r{brick_key(nb[0], nb[1], nb[2])};
-              r.cell = static_cast<std::uint16_t>(cell_index(n[0], n[1], n[2]));
+              r.cell = nc;
               out.push_back(r);
             }
           }
@@ -420,11 +432,7 @@ BrickList BrickSampler::run() {
   std::vector<std::uint64_t> refined8;  // bricks that run the stride-4 level (sorted)
   // The dense path evaluates every point of every brick itself (the reference the sparse path
   // is tested against); the sparse path shares points between neighbours.
-  if (!opts_.dense)
-    im.find = [&](std::uint64_t key) -> const Brick* {
-      const auto it = bricks.find(key);
-      return it == bricks.end() ? nullptr : it->second.get();
-    };
+  if (!opts_.dense) im.map = &bricks;
   // Runs f(n, batch) for every brick of `keys`, in eight classes by coordinate parity (see
   // Impl::need), each class in parallel.
   auto by_class = [&](const std::vector<std::uint64_t>& keys, auto&& f) {
@@ -456,7 +464,7 @@ BrickList BrickSampler::run() {
       im.check_cancel();
       thread_local Batch b;
       Brick& br = *list[n];
-      im.need(br, b, [](auto&& at) {
+      im.need(br, Impl::Around{}, b, [](auto&& at) {
         for (int i = 0; i < kSide; ++i)
           for (int j = 0; j < kSide; ++j)
             for (int k = 0; k < kSide; ++k) at(i, j, k);
