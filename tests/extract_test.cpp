@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <complex>
+#include <tuple>
 
 #include "qjulia/field/classify.h"
 #include "qjulia/grid/sample.h"
@@ -374,6 +375,49 @@ TEST(Extract, RealCoefficientSineAndExponentialMapsAreTheirComplexPicturesRevolv
       return complex_escape_inside(
           Cx(x, rho), [&](Cx z) { return std::exp(z) + c; }, p.iterations, p.bailout);
     });
+  }
+}
+
+// The measures the bricks give (no pass over the mesh) against measure() of the whole mesh.
+void expect_same_measure(const MeshMeasure& a, const MeshMeasure& b) {
+  EXPECT_EQ(a.vertices, b.vertices);
+  EXPECT_EQ(a.faces, b.faces);
+  EXPECT_EQ(a.edges, b.edges);
+  EXPECT_EQ(a.boundary_edges, b.boundary_edges);
+  EXPECT_EQ(a.closed, b.closed);
+  EXPECT_EQ(a.manifold, b.manifold);
+  EXPECT_EQ(a.oriented, b.oriented);
+  EXPECT_EQ(a.degenerate_faces, b.degenerate_faces);
+  EXPECT_EQ(a.euler, b.euler);
+  EXPECT_NEAR(a.volume, b.volume, 1e-9 * std::abs(b.volume));
+  EXPECT_NEAR(a.area, b.area, 1e-9 * b.area);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_DOUBLE_EQ(a.bbox_min[k], b.bbox_min[k]);
+    EXPECT_DOUBLE_EQ(a.bbox_max[k], b.bbox_max[k]);
+  }
+  ASSERT_EQ(a.components.size(), b.components.size());
+  auto key = [](const ComponentMeasure& c) { return std::make_tuple(c.faces, c.genus, c.euler); };
+  std::vector<std::tuple<std::size_t, long long, long long>> ka, kb;
+  double va = 0, vb = 0;
+  for (const auto& c : a.components) ka.push_back(key(c)), va += std::abs(c.volume);
+  for (const auto& c : b.components) kb.push_back(key(c)), vb += std::abs(c.volume);
+  std::sort(ka.begin(), ka.end());
+  std::sort(kb.begin(), kb.end());
+  EXPECT_EQ(ka, kb);
+  EXPECT_NEAR(va, vb, 1e-9 * vb);
+}
+
+TEST(Extract, BricksMeasureTheMeshAsAWholeMeshPassDoesOnEveryPreset) {
+  for (const std::string& name : preset_names()) {
+    SCOPED_TRACE(name);
+    Params p = preset(name);
+    p.resolution = 80;
+    const SampledGrid grid = sample(p);
+    ExtractStats es;
+    const TriMesh mesh = extract(grid, {}, &es);
+    ASSERT_TRUE(es.measure_valid);
+    expect_same_measure(es.measure, measure(mesh));
+    ASSERT_EQ(es.face_component.size(), mesh.triangles.size());
   }
 }
 

@@ -171,5 +171,34 @@ TEST(Pipeline, IterationColoursVaryAndStayInRange) {
   EXPECT_GT(colours.size(), 100u);
 }
 
+TEST(Pipeline, StatsDescribeTheMeshThatIsWrittenOnEveryPreset) {
+  // The measures come from the bricks and follow dust removal and scaling; they must be what
+  // measure() finds in the final mesh.
+  for (const std::string& name : preset_names()) {
+    SCOPED_TRACE(name);
+    Params p = preset(name);
+    p.resolution = 72;
+    if (name == "classic-julia") p.print.size_mm = 80;
+    const PipelineResult r = run_pipeline(p);
+    const MeshMeasure m = measure(r.mesh);
+    const MeshMeasure& s = r.stats.measure;
+    EXPECT_EQ(s.vertices, m.vertices);
+    EXPECT_EQ(s.faces, m.faces);
+    EXPECT_EQ(s.edges, m.edges);
+    EXPECT_EQ(s.euler, m.euler);
+    EXPECT_EQ(s.closed, m.closed);
+    EXPECT_EQ(s.manifold, m.manifold);
+    EXPECT_EQ(s.components.size(), m.components.size());
+    EXPECT_NEAR(s.volume, m.volume, 1e-9 * std::abs(m.volume));
+    EXPECT_NEAR(s.area, m.area, 1e-9 * m.area);
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_NEAR(s.bbox_min[a], m.bbox_min[a], 1e-9 * (1 + std::abs(m.bbox_min[a])));
+      EXPECT_NEAR(s.bbox_max[a], m.bbox_max[a], 1e-9 * (1 + std::abs(m.bbox_max[a])));
+    }
+    ASSERT_TRUE(r.stats.clean);
+    EXPECT_EQ(r.stats.clean->components_after, m.components.size());
+  }
+}
+
 }  // namespace
 }  // namespace qjulia

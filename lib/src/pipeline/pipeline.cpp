@@ -3,12 +3,13 @@
 #include <chrono>
 #include <nlohmann/json.hpp>
 
+#include "pipeline/dust.h"
 #include "qjulia/base/error.h"
 #include "qjulia/base/memory.h"
+#include "qjulia/field/classify.h"
 #include "qjulia/mesh/clean.h"
 #include "qjulia/mesh/decimate.h"
 #include "qjulia/mesh/print.h"
-#include "qjulia/field/classify.h"
 #include "qjulia/surface/extract.h"
 
 namespace qjulia {
@@ -70,18 +71,34 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   eopts.cancel = opts.cancel;
   eopts.progress = timer.start("extract");
   ExtractStats estats;
-  TriMesh mesh = opts.keep_grid ? extract(grid, eopts, &estats)
-                               : extract(std::move(grid), eopts, &estats);
+  TriMesh mesh =
+      opts.keep_grid ? extract(grid, eopts, &estats) : extract(std::move(grid), eopts, &estats);
   timer.stop();
   stats.refine_evaluations = estats.evaluations;
 
-  CleanOptions copts;
-  copts.min_component_volume = params.mesh.min_component;
-  copts.voxel_size = grid.voxel_size();
-  copts.cancel = opts.cancel;
-  copts.progress = timer.start("clean");
+  // Dust: the extracted mesh is closed, manifold and free of duplicate vertices, and its
+  // components are measured, so only the small ones go (the measures follow). A mesh whose
+  // bricks did not check out goes through the general clean().
   CleanReport creport;
-  mesh = clean(mesh, copts, &creport);
+  std::optional<MeshMeasure> known;  // the measures of `mesh` while they stay true
+  {
+    const ProgressFn progress = timer.start("clean");
+    const double voxel = stats.voxel_size;
+    if (estats.measure_valid) {
+      const double threshold = params.mesh.min_component
+                                   ? *params.mesh.min_component
+                                   : kDefaultDustVoxels * voxel * voxel * voxel;
+      creport = detail::remove_dust(mesh, estats, threshold);
+      known = std::move(estats.measure);
+    } else {
+      CleanOptions copts;
+      copts.min_component_volume = params.mesh.min_component;
+      copts.voxel_size = voxel;
+      copts.cancel = opts.cancel;
+      copts.progress = progress;
+      mesh = clean(mesh, copts, &creport);
+    }
+  }
   timer.stop();
   stats.clean = creport;
 
@@ -91,6 +108,8 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
     timer.start("scale");
     stats.scale = scale_to_longest_side(mesh, *params.print.size_mm);
     stats.unit = "mm";
+    // The scaled positions are rounded to floats again: the written mesh is measured anew.
+    known.reset();
     timer.stop();
   }
   if (params.print.min_thickness_mm) {
@@ -100,6 +119,7 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
     topts.cancel = opts.cancel;
     topts.progress = timer.start("thicken");
     mesh = thicken(mesh, topts);
+    known.reset();
     timer.stop();
   }
   if (params.mesh.faces || params.mesh.max_error) {
@@ -112,6 +132,7 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
     dopts.progress = timer.start("decimate");
     DecimateReport dreport;
     mesh = decimate(mesh, dopts, &dreport);
+    known.reset();
     timer.stop();
     stats.decimate = dreport;
   }
@@ -123,7 +144,7 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   if (mesh.normals.size() != mesh.positions.size()) compute_normals(mesh);
 
   timer.start("measure");
-  stats.measure = measure(mesh);
+  stats.measure = known ? std::move(*known) : measure(mesh);
   timer.stop();
   stats.peak_rss_bytes = peak_rss_bytes();
   result.mesh = std::move(mesh);

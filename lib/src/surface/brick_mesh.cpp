@@ -103,6 +103,22 @@ BrickMesh mesh_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
                             ci[2] + corner_bit(d0, 2), t.edge_axis[e]);
         ids[q] = ref_of(code[q]);
       }
+      // Segments of the loop on a face of the brick: shared with the neighbour brick.
+      for (int q = 0; q < len; ++q) {
+        const int e1 = loop[q], e2 = loop[(q + 1) % len];
+        for (int f = 0; f < 6; ++f) {
+          const int axis = t.face_axis[f], side = t.face_side[f];
+          if (ci[axis] != (side ? kBrick - 1 : 0)) continue;
+          const auto& fc = t.face_corners[f];
+          bool has1 = false, has2 = false;
+          for (int k = 0; k < 4; ++k) {
+            const int e = t.edge_of[fc[k]][fc[(k + 1) % 4]];
+            has1 = has1 || e == e1;
+            has2 = has2 || e == e2;
+          }
+          if (has1 && has2) out.border[2 * axis + side].push_back({ids[q], ids[(q + 1) % len]});
+        }
+      }
       std::uint8_t tris[3 * 10];
       const int n = triangulate_loop(
           loop, len, [](int, int) { return 0.0; }, tris);

@@ -31,6 +31,10 @@ struct BrickMesh {
   std::vector<std::array<float, 3>> positions;
   std::vector<std::uint16_t> codes;  ///< edge codes of the edge vertices, ascending
   std::vector<std::array<std::uint32_t, 3>> triangles;
+  /// The triangle edges that lie on a face of the brick (from -x, +x, -y, +y, -z, +z: index
+  /// 2 * axis + side), as (from, to) corners in the triangles' orientation: the neighbour across
+  /// that face has each of them the other way round.
+  std::vector<std::array<std::uint32_t, 2>> border[6];
   std::uint64_t evaluations = 0;  ///< classifier calls for the vertices
 };
 

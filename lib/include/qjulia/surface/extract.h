@@ -2,7 +2,9 @@
 /// @file extract.h
 /// Surface extraction: marching cubes over the sampled cells, vertices refined onto the exact
 /// classification boundary, outward orientation.
+#include <array>
 #include <cstdint>
+#include <vector>
 
 #include "qjulia/base/mesh.h"
 #include "qjulia/base/progress.h"
@@ -27,6 +29,15 @@ struct ExtractOptions {
 /// What extract() did besides the mesh.
 struct ExtractStats {
   std::uint64_t evaluations = 0;  ///< classifier calls for refinement and colours
+  /// The measures of the mesh, from the bricks (no second pass over the mesh): valid when the
+  /// bricks' half-edges all paired up (closed, manifold, oriented) and no face is degenerate;
+  /// else use measure(mesh).
+  MeshMeasure measure;
+  bool measure_valid = false;
+  /// Per face, its component (an index into measure.components).
+  std::vector<std::uint32_t> face_component;
+  /// Per component, its bounding box (min x, y, z, max x, y, z).
+  std::vector<std::array<double, 6>> component_bbox;
 };
 
 /// Extracts the closed, oriented, manifold surface of the sampled solid, brick by brick in
