@@ -84,6 +84,16 @@ Classifier::Classifier(const Params& params) : params_(params) {
 
 std::uint64_t Classifier::field(const double* x, const double* y, const double* z, std::size_t n,
                                 float* out) const {
+  return values(x, y, z, n, out, false);
+}
+
+std::uint64_t Classifier::root_field(const double* x, const double* y, const double* z,
+                                     std::size_t n, float* out) const {
+  return values(x, y, z, n, out, true);
+}
+
+std::uint64_t Classifier::values(const double* x, const double* y, const double* z, std::size_t n,
+                                 float* out, bool root) const {
   if (kernel_) {
     // In blocks, through a double buffer on the stack.
     constexpr std::size_t kBlock = 1024;
@@ -91,7 +101,7 @@ std::uint64_t Classifier::field(const double* x, const double* y, const double* 
     std::uint64_t steps = 0;
     for (std::size_t i = 0; i < n; i += kBlock) {
       const std::size_t m = std::min(kBlock, n - i);
-      steps += detail::kernel_field(*kernel_, x + i, y + i, z + i, m, f);
+      steps += detail::kernel_field(*kernel_, x + i, y + i, z + i, m, f, root);
       for (std::size_t j = 0; j < m; ++j) out[i + j] = static_cast<float>(f[j]);
     }
     return steps;
@@ -99,7 +109,7 @@ std::uint64_t Classifier::field(const double* x, const double* y, const double* 
   std::uint64_t steps = 0;
   for (std::size_t i = 0; i < n; ++i) {
     const Orbit o = orbit(x[i], y[i], z[i]);
-    out[i] = o.field;
+    out[i] = root ? o.root : o.field;
     steps += o.exit_step >= 0 ? o.exit_step : params_.iterations;
   }
   return steps;
@@ -134,9 +144,11 @@ Orbit Classifier::orbit(double x, double y, double z) const {
   if (params_.method == Method::kEscape) {
     // s_k = log(|h_k| / R); the orbit leaves at the first k with s_k > 0.
     double prev2 = norm2(h);
+    double max2 = prev2;  // for the refinement value max_k s_k
     if (prev2 > r2) {
       const double s = 0.5 * std::log(prev2) - log_r;
       out.field = clamp_field(n_iter + frac(s, 1.0));
+      out.root = clamp_field(s);
       out.exit_step = 0;
       out.last = h;
       return out;
@@ -151,19 +163,23 @@ Orbit Classifier::orbit(double x, double y, double z) const {
         // it stays above N - k.
         const double s_prev = prev2 > 0 ? 0.5 * std::log(prev2) - log_r : -1.0;
         out.field = clamp_field((n_iter - k) + frac(s, -s_prev));
+        out.root = clamp_field(s);
         out.exit_step = k;
         out.last = is_finite(next) ? next : h;
         return out;
       }
       h = next;
       prev2 = n2;
+      max2 = std::max(max2, n2);
     }
     out.field = clamp_field(0.5 * std::log(prev2) - log_r);  // s_N <= 0
+    out.root = clamp_field(0.5 * std::log(max2) - log_r);
     out.last = h;
     return out;
   }
   // Cut-off: t_k = log(|h_k - h_(k-1)| / R); converged at the first k with t_k < 0.
   double t_prev = std::numeric_limits<double>::infinity();
+  double t_min = t_prev;  // for the refinement value -min_k t_k
   for (int k = 1; k <= n_iter; ++k) {
     const Quat next = formula_.eval(h, consts);
     const double d2 = norm2(next - h);
@@ -171,6 +187,7 @@ Orbit Classifier::orbit(double x, double y, double z) const {
       // A pole or an overflow: a large step, and the orbit stays at infinity, so it never
       // converges. The point is in the solid, well inside.
       out.field = -kFieldLimit;
+      out.root = -kFieldLimit;
       out.last = is_finite(next) ? next : h;
       return out;
     }
@@ -178,14 +195,17 @@ Orbit Classifier::orbit(double x, double y, double z) const {
     if (t < 0) {
       out.field =
           clamp_field(k == 1 ? (n_iter - 1) + frac(-t, 1.0) : (n_iter - k) + frac(-t, t_prev));
+      out.root = clamp_field(-t);
       out.exit_step = k;
       out.last = next;
       return out;
     }
     t_prev = t;
+    t_min = std::min(t_min, t);
     h = next;
   }
   out.field = clamp_field(-t_prev);  // -t_N <= 0
+  out.root = clamp_field(-t_min);
   out.last = h;
   return out;
 }
@@ -239,6 +259,16 @@ std::optional<float> Solid::excluded_field(double x, double y, double z) const {
 
 std::uint64_t Solid::field(const double* x, const double* y, const double* z, std::size_t n,
                            float* out) const {
+  return values(x, y, z, n, out, false);
+}
+
+std::uint64_t Solid::root_field(const double* x, const double* y, const double* z, std::size_t n,
+                                float* out) const {
+  return values(x, y, z, n, out, true);
+}
+
+std::uint64_t Solid::values(const double* x, const double* y, const double* z, std::size_t n,
+                            float* out, bool root) const {
   if (!has_clip()) {
     // Points of the grid are inside the box: only callers with points outside need the
     // constraint, and they are the refinement, which asks point by point near the walls.
@@ -246,7 +276,8 @@ std::uint64_t Solid::field(const double* x, const double* y, const double* z, st
     for (std::size_t i = 0; i < n && all_in_box; ++i)
       all_in_box = constraint(x[i], y[i], z[i]) <= 0;
     if (all_in_box) {
-      const std::uint64_t steps = classifier_.field(x, y, z, n, out);
+      const std::uint64_t steps = root ? classifier_.root_field(x, y, z, n, out)
+                                       : classifier_.field(x, y, z, n, out);
       for (std::size_t i = 0; i < n; ++i)
         out[i] = std::max(out[i], static_cast<float>(constraint(x[i], y[i], z[i]) / voxel_));
       return steps;

@@ -420,10 +420,27 @@ HWY_INLINE V field_of(const KernelSetup& s, V k, V a, V b) {
   return hn::IfThenElse(hn::IsNaN(f), big, hn::Min(big, hn::Max(nbig, f)));
 }
 
+// The value refinement finds the boundary with: max_k s_k (escape) or -min_k t_k (cut-off) over
+// the orbit up to its decision: exactly the method's test (the point is in the solid when it is
+// <= 0), and continuous everywhere, unlike F, whose formula changes at the boundary. A pole
+// (cut-off) gives -limit.
+HWY_INLINE V root_of(const KernelSetup& s, V k, V a, V b) {
+  const D d;
+  const V big = hn::Set(d, kFieldLimit);
+  // Decided at step k: the metric then (the first beyond the bailout, or below the cut-off,
+  // so also the extreme so far); never decided: the extreme over the orbit.
+  const auto never = hn::Eq(k, hn::Set(d, -1.0));
+  const V sa = half_log_ratio(hn::IfThenElse(never, b, a), s.log_r);
+  V g = s.escape ? sa : hn::Neg(sa);
+  if (!s.escape) g = hn::IfThenElse(hn::Eq(k, hn::Set(d, -2.0)), hn::Neg(big), g);
+  return hn::IfThenElse(hn::IsNaN(g), big, hn::Min(big, hn::Max(hn::Neg(big), g)));
+}
+
 class Machine {
  public:
   std::uint64_t run(const KernelSetup& s, const double* x, const double* y, const double* z,
-                    std::size_t n, double* out) {
+                    std::size_t n, double* out, bool root) {
+    root_ = root;
     s_ = &s;
     out_ = out;
     steps_ = 0;
@@ -549,6 +566,7 @@ class Machine {
       }
     }
     std::copy_n(qprev_.data(), take, prev_);
+    std::copy_n(qprev_.data(), take, ext_);
     std::copy_n(qidx_.data(), take, idx_);
     std::fill(start_, start_ + lanes_, 0.0);
     std::fill(pending_, pending_ + lanes_, 0.0);
@@ -560,6 +578,17 @@ class Machine {
   }
 
   static void set_bits(double& v) { std::memset(&v, 0xff, sizeof v); }
+
+  // The running extreme of the metric over the orbit (the largest |h_k|^2 for escape, the
+  // smallest step for cut-off): the refinement value of an orbit that never decides.
+  HWY_INLINE V extreme(V ext, V metric) const {
+    return s_->escape ? hn::Max(ext, metric) : hn::Min(ext, metric);
+  }
+  // What a decided orbit keeps as its second value: the previous metric (for F), or the
+  // extreme for an orbit that never decided (F does not use the previous metric there).
+  static HWY_INLINE V second(V code, V prev, V ext) {
+    return hn::IfThenElse(hn::Eq(code, hn::Set(D(), -1.0)), ext, prev);
+  }
 
   // One step of every orbit in flight; every few sweeps, retirement and refill.
   void sweep() {
@@ -598,6 +627,8 @@ class Machine {
       }
       if (!result_is_temp_ && s_->result != 0) h.store(o, q);
       hn::Store(metric, d, metric_ + o);
+      const V ext = extreme(hn::Load(d, ext_ + o), metric);
+      hn::Store(ext, d, ext_ + o);
       const V k = hn::Sub(g, hn::Load(d, start_ + o));
       const M open = hn::Not(hn::MaskFromVec(hn::Load(d, frozen_ + o)));
       const M now = hn::And(open, hn::Or(exit, hn::Eq(k, iters)));
@@ -606,7 +637,7 @@ class Machine {
       if (!s_->escape) code = hn::IfThenElse(hn::IsFinite(metric), code, hn::Set(d, -2.0));
       hn::BlendedStore(code, now, d, cap_code_ + o);
       hn::BlendedStore(metric, now, d, cap_a_ + o);
-      hn::BlendedStore(hn::Load(d, prev_ + o), now, d, cap_b_ + o);
+      hn::BlendedStore(second(code, hn::Load(d, prev_ + o), ext), now, d, cap_b_ + o);
       const V all = hn::VecFromMask(d, now);
       hn::Store(hn::Or(all, hn::Load(d, frozen_ + o)), d, frozen_ + o);
       hn::Store(hn::Or(all, hn::Load(d, pending_ + o)), d, pending_ + o);
@@ -655,7 +686,7 @@ class Machine {
     const V r2 = hn::Set(d, s_->r2), iters = hn::Set(d, s_->iterations), one = hn::Set(d, 1.0);
     const V minus1 = hn::Set(d, -1.0), minus2 = hn::Set(d, -2.0), zero = hn::Zero(d);
     Q h[kGroup], c[kGroup];
-    V prev[kGroup], k[kGroup], idx[kGroup];
+    V prev[kGroup], k[kGroup], idx[kGroup], ext[kGroup];
     __mmask8 live[kGroup];
     const double* qh[4] = {qh_[0].data(), qh_[1].data(), qh_[2].data(), qh_[3].data()};
     const double* qc[4] = {};
@@ -680,6 +711,7 @@ class Machine {
         c[g].z = V{_mm512_mask_expandloadu_pd(c[g].z.raw, m, qc[3] + taken_)};
       }
       prev[g] = V{_mm512_mask_expandloadu_pd(prev[g].raw, m, qprev_.data() + taken_)};
+      ext[g] = V{_mm512_mask_expandloadu_pd(ext[g].raw, m, qprev_.data() + taken_)};
       idx[g] = V{_mm512_mask_expandloadu_pd(idx[g].raw, m, qidx_.data() + taken_)};
       k[g] = V{_mm512_mask_mov_pd(k[g].raw, m, zero.raw)};
       taken_ += static_cast<std::size_t>(__builtin_popcount(m));
@@ -687,7 +719,7 @@ class Machine {
     };
     for (std::size_t g = 0; g < kGroup; ++g) {
       h[g] = c[g] = {zero, zero, zero, zero};
-      prev[g] = k[g] = idx[g] = zero;
+      prev[g] = k[g] = idx[g] = ext[g] = zero;
       live[g] = load(g, 0xff);
     }
     for (;;) {
@@ -710,13 +742,14 @@ class Machine {
           exit = hn::Or(hn::Not(hn::Ge(metric, r2)), hn::Not(hn::IsFinite(metric)));
         }
         k[g] = hn::Add(k[g], one);
+        ext[g] = kEscape ? hn::Max(ext[g], metric) : hn::Min(ext[g], metric);
         const __mmask8 now = live[g] & hn::Or(exit, hn::Eq(k[g], iters)).raw;
         h[g] = q;
         if (HWY_UNLIKELY(now != 0)) {
           V code = hn::IfThenElse(exit, k[g], minus1);
           if (!kEscape) code = hn::IfThenElse(hn::IsFinite(metric), code, minus2);
           const M m{now};
-          finished(m, code, metric, prev[g], idx[g]);
+          finished(m, code, metric, second(code, prev[g], ext[g]), idx[g]);
           prev[g] = metric;
           // Lanes the queue cannot refill idle on zeros.
           const __mmask8 filled = load(g, now);
@@ -756,13 +789,14 @@ class Machine {
     while (live_ > 0) {
       for (std::size_t base = 0; base < lanes_; base += width) {
         Q hv[kGroup];
-        V prev[kGroup], k[kGroup];
+        V prev[kGroup], k[kGroup], ext[kGroup];
         M frozen[kGroup], pending[kGroup];
         std::size_t open = 0;
         for (std::size_t g = 0; g < kGroup; ++g) {
           const std::size_t o = base + g * nl;
           hv[g] = h.load(o);
           prev[g] = hn::Load(d, prev_ + o);
+          ext[g] = hn::Load(d, ext_ + o);
           k[g] = hn::Load(d, start_ + o);
           frozen[g] = hn::MaskFromVec(hn::Load(d, frozen_ + o));
           pending[g] = hn::MaskFromVec(hn::Load(d, pending_ + o));
@@ -788,13 +822,14 @@ class Machine {
               exit = hn::Or(hn::Not(hn::Ge(metric, r2)), hn::Not(hn::IsFinite(metric)));
             }
             k[g] = hn::Add(k[g], one);
+            ext[g] = kEscape ? hn::Max(ext[g], metric) : hn::Min(ext[g], metric);
             const M now = hn::AndNot(frozen[g], hn::Or(exit, hn::Eq(k[g], iters)));
             if (HWY_UNLIKELY(!hn::AllFalse(d, now))) {
               V code = hn::IfThenElse(exit, k[g], minus1);
               if (!kEscape) code = hn::IfThenElse(hn::IsFinite(metric), code, minus2);
               hn::BlendedStore(code, now, d, cap_code_ + o);
               hn::BlendedStore(metric, now, d, cap_a_ + o);
-              hn::BlendedStore(prev[g], now, d, cap_b_ + o);
+              hn::BlendedStore(second(code, prev[g], ext[g]), now, d, cap_b_ + o);
               frozen[g] = hn::Or(frozen[g], now);
               pending[g] = hn::Or(pending[g], now);
               decided += hn::CountTrue(d, now);
@@ -811,6 +846,7 @@ class Machine {
           const std::size_t o = base + g * nl;
           h.store(o, hv[g]);
           hn::Store(prev[g], d, prev_ + o);
+          hn::Store(ext[g], d, ext_ + o);
           hn::Store(k[g], d, start_ + o);
           hn::Store(hn::VecFromMask(d, frozen[g]), d, frozen_ + o);
           hn::Store(hn::VecFromMask(d, pending[g]), d, pending_ + o);
@@ -862,6 +898,7 @@ class Machine {
         if (s_->c_register >= 0) expand(qc_[c].data(), slot_[s_->c_register].c[c] + o);
       }
       expand(qprev_.data(), prev_ + o);
+      expand(qprev_.data(), ext_ + o);
       expand(qidx_.data(), idx_ + o);
       hn::Store(hn::IfThenElse(done, g, hn::Load(d, start_ + o)), d, start_ + o);
       hn::Store(hn::IfThenElseZero(hn::Not(done), hn::Load(d, frozen_ + o)), d, frozen_ + o);
@@ -880,6 +917,7 @@ class Machine {
           if (s_->c_register >= 0) slot_[s_->c_register].c[c][lane] = qc_[c][taken_];
         }
         prev_[lane] = qprev_[taken_];
+        ext_[lane] = qprev_[taken_];
         idx_[lane] = qidx_[taken_];
         start_[lane] = static_cast<double>(sweeps_);
         frozen_[lane] = 0.0;
@@ -916,7 +954,8 @@ class Machine {
     for (std::size_t i = 0; i < fcount_; i += nl) {
       const V k = hn::Load(d, fcode_ + i);
       const V idx = hn::Load(d, fidx_ + i);
-      const V fv = field_of(*s_, k, hn::Load(d, fa_ + i), hn::Load(d, fb_ + i));
+      const V fv = root_ ? root_of(*s_, k, hn::Load(d, fa_ + i), hn::Load(d, fb_ + i))
+                         : field_of(*s_, k, hn::Load(d, fa_ + i), hn::Load(d, fb_ + i));
       // Steps done: the exit step, or N for an orbit that never decided (and the padding,
       // whose point index is negative, none).
       const V done = hn::IfThenElse(hn::Lt(k, hn::Zero(d)), iters, k);
@@ -1074,6 +1113,7 @@ class Machine {
   }
 
   const KernelSetup* s_ = nullptr;
+  bool root_ = false;
   double* out_ = nullptr;
   std::uint64_t steps_ = 0;
   std::size_t lanes_ = 0, live_ = 0;
@@ -1086,7 +1126,7 @@ class Machine {
   HWY_ALIGN double prev_buf_[kMaxInFlight + 8], metric_buf_[kMaxInFlight + 8];
   double* prev_ = prev_buf_;
   double* metric_ = metric_buf_;
-  HWY_ALIGN double start_[kMaxInFlight + 8], idx_[kMaxInFlight + 8];
+  HWY_ALIGN double start_[kMaxInFlight + 8], idx_[kMaxInFlight + 8], ext_[kMaxInFlight + 8];
   HWY_ALIGN double frozen_[kMaxInFlight + 8], pending_[kMaxInFlight + 8];
   HWY_ALIGN double cap_code_[kMaxInFlight + 8], cap_a_[kMaxInFlight + 8], cap_b_[kMaxInFlight + 8];
   std::uint64_t sweeps_ = 0;
@@ -1101,10 +1141,10 @@ class Machine {
 };
 
 std::uint64_t KernelField(const KernelSetup& s, const double* x, const double* y, const double* z,
-                          std::size_t n, double* out) {
+                          std::size_t n, double* out, bool root) {
   thread_local std::unique_ptr<Machine> machine;  // large: kept per thread, not on the stack
   if (!machine) machine = std::make_unique<Machine>();
-  return machine->run(s, x, y, z, n, out);
+  return machine->run(s, x, y, z, n, out, root);
 }
 
 void KernelAnalytic(int code, const Quat* in, std::size_t n, double exponent, Quat* out) {
@@ -1266,9 +1306,9 @@ std::string kernel_target() {
 bool kernel_supports(const Op*, int) { return true; }
 
 std::uint64_t kernel_field(const KernelSetup& setup, const double* x, const double* y,
-                           const double* z, std::size_t n, double* out) {
+                           const double* z, std::size_t n, double* out, bool root) {
   if (n == 0) return 0;
-  return HWY_DYNAMIC_DISPATCH(KernelField)(setup, x, y, z, n, out);
+  return HWY_DYNAMIC_DISPATCH(KernelField)(setup, x, y, z, n, out, root);
 }
 
 }  // namespace qjulia::detail

@@ -85,8 +85,9 @@ bool kernel_supports(const Op* ops, int op_count);
 /// and writes F (in double precision, clamped like the scalar classifier's) to out[i]. Returns
 /// the number of formula evaluations (orbit steps) done. Requires kernel_supports(); without a
 /// vector target it runs Highway's scalar emulation.
+/// With `root`, writes the refinement value instead (see Classifier::root_field).
 std::uint64_t kernel_field(const KernelSetup& setup, const double* x, const double* y,
-                           const double* z, std::size_t n, double* out);
+                           const double* z, std::size_t n, double* out, bool root = false);
 
 /// One analytic function (kExp .. kPowReal, the exponent for the latter) on each quaternion, by
 /// the vector code of the current target: for testing it against the scalar functions.

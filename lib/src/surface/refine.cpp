@@ -14,13 +14,18 @@ std::array<double, 3> lerp(const std::array<double, 3>& a, const std::array<doub
 }
 
 struct State {
-  double lo = 0, hi = 1;  // lo keeps the sign of a, hi the sign of b
-  double flo = 0, fhi = 0;
+  double lo = 0, hi = 1;    // lo keeps the sign of a, hi the sign of b
+  double glo = 0, ghi = 0;  // the refinement values there, when known
+  bool lo_known = false, hi_known = false;
   double t = 0;  // the point being evaluated
-  bool bisect = false;
+  int side = 0;  // Illinois: which end was kept last (-1 lo, +1 hi)
   int steps = 0;
   bool done = false;
 };
+
+// Values of the refinement function beyond this are "far" (an orbit decided early), not a
+// smooth value to interpolate.
+constexpr float kFar = 1e5f;
 
 }  // namespace
 
@@ -31,9 +36,12 @@ std::uint64_t refine_segments(const Solid& solid, const Segment* seg, std::size_
   std::vector<float> f;
   std::vector<std::size_t> which;
   std::uint64_t evaluations = 0;
-  auto evaluate = [&]() {
+  auto evaluate = [&](bool root) {
     f.resize(which.size());
-    solid.field(x.data(), y.data(), z.data(), which.size(), f.data());
+    if (root)
+      solid.root_field(x.data(), y.data(), z.data(), which.size(), f.data());
+    else
+      solid.field(x.data(), y.data(), z.data(), which.size(), f.data());
     evaluations += which.size();
   };
   auto queue = [&](std::size_t i, double t) {
@@ -51,43 +59,60 @@ std::uint64_t refine_segments(const Solid& solid, const Segment* seg, std::size_
     which.clear();
   };
   // An end outside only because of the box or a clip plane: the boundary is the plane when the
-  // point on it is in the solid, which makes caps exactly flat.
+  // point on it is in the solid, which makes caps exactly flat. Else the first guess: where the
+  // grid values interpolate to zero.
   for (std::size_t i = 0; i < n; ++i) {
     State& s = st[i];
-    s.flo = seg[i].fa;
-    s.fhi = seg[i].fb;
     const bool a_inside = seg[i].fa <= 0;
+    // An end in the solid has the refinement value of its field (the two agree inside).
+    s.glo = seg[i].fa;
+    s.ghi = seg[i].fb;
+    s.lo_known = a_inside;
+    s.hi_known = !a_inside;
     const auto& o = a_inside ? seg[i].b : seg[i].a;
     if (solid.constraint(o[0], o[1], o[2]) > 0) {
       const double c = solid.constraint_crossing(a_inside ? seg[i].a : seg[i].b, o);
       const double tc = a_inside ? c : 1 - c;
       queue(i, std::clamp(tc, kEndMargin, 1 - kEndMargin));
+    } else {
+      double t = seg[i].fa / (seg[i].fa - seg[i].fb);
+      if (!(t > 0.01 && t < 0.99)) t = std::clamp(t, 0.01, 0.99);
+      queue(i, t);
     }
   }
-  evaluate();
+  evaluate(true);
   for (std::size_t q = 0; q < which.size(); ++q) {
     const std::size_t i = which[q];
     State& s = st[i];
-    if (f[q] <= 0) {
+    const auto& o = seg[i].fa <= 0 ? seg[i].b : seg[i].a;
+    const bool plane = solid.constraint(o[0], o[1], o[2]) > 0;
+    if (plane && f[q] <= 0) {
       out[i] = lerp(seg[i].a, seg[i].b, s.t);
       s.done = true;
-    } else if (seg[i].fa <= 0) {  // the fractal boundary comes first
-      s.hi = s.t;
-      s.fhi = f[q];
-    } else {
+      continue;
+    }
+    ++s.steps;
+    if ((f[q] <= 0) == (seg[i].fa <= 0)) {
       s.lo = s.t;
-      s.flo = f[q];
+      s.glo = f[q];
+      s.lo_known = true;
+    } else {
+      s.hi = s.t;
+      s.ghi = f[q];
+      s.hi_known = true;
     }
   }
   clear();
-  // False position, with a bisection step whenever the last step did not halve the bracket:
-  // fast where the field is smooth, never slower than bisection where it is steep.
+  // Then regula falsi on the refinement values with the Illinois rule (the end kept twice has
+  // its value halved, so both ends close in), bisection while an end's value is unknown or far.
   for (;;) {
     for (std::size_t i = 0; i < n; ++i) {
       State& s = st[i];
       if (s.done) continue;
+      const bool smooth = s.lo_known && s.hi_known && std::abs(s.glo) < kFar &&
+                          std::abs(s.ghi) < kFar && s.glo != s.ghi;
       if (s.steps >= max_steps || !(s.hi - s.lo > tol_t)) {
-        double t = (s.flo * s.hi - s.fhi * s.lo) / (s.flo - s.fhi);
+        double t = smooth ? (s.glo * s.hi - s.ghi * s.lo) / (s.glo - s.ghi) : 0.5 * (s.lo + s.hi);
         if (!(t >= s.lo && t <= s.hi)) t = 0.5 * (s.lo + s.hi);
         // Never on a grid point: a vertex there would coincide with the vertices of the other
         // edges of that point and leave zero-area triangles.
@@ -95,27 +120,31 @@ std::uint64_t refine_segments(const Solid& solid, const Segment* seg, std::size_
         s.done = true;
         continue;
       }
-      const double width = s.hi - s.lo;
-      double t = s.bisect ? 0.5 * (s.lo + s.hi) : (s.flo * s.hi - s.fhi * s.lo) / (s.flo - s.fhi);
-      const double margin = 0.01 * width;
-      if (!(t > s.lo + margin && t < s.hi - margin))
-        t = std::clamp(t, s.lo + margin, s.hi - margin);
+      double t = smooth ? (s.glo * s.hi - s.ghi * s.lo) / (s.glo - s.ghi) : 0.5 * (s.lo + s.hi);
+      const double margin = 0.01 * (s.hi - s.lo);
+      if (!(t > s.lo + margin && t < s.hi - margin)) t = std::clamp(t, s.lo + margin, s.hi - margin);
       queue(i, t);
     }
     if (which.empty()) break;
-    evaluate();
+    evaluate(true);
     for (std::size_t q = 0; q < which.size(); ++q) {
       State& s = st[which[q]];
-      const double width = s.hi - s.lo;
-      if ((f[q] <= 0) == (s.flo <= 0)) {
+      ++s.steps;
+      const bool a_inside = seg[which[q]].fa <= 0;
+      const bool moves_lo = (f[q] <= 0) == a_inside;
+      if (moves_lo) {
         s.lo = s.t;
-        s.flo = f[q];
+        s.glo = f[q];
+        s.lo_known = true;
+        if (s.side == -1) s.ghi *= 0.5f;  // hi kept twice
+        s.side = -1;
       } else {
         s.hi = s.t;
-        s.fhi = f[q];
+        s.ghi = f[q];
+        s.hi_known = true;
+        if (s.side == 1) s.glo *= 0.5f;
+        s.side = 1;
       }
-      ++s.steps;
-      s.bisect = s.bisect || s.hi - s.lo > 0.5 * width;  // once steep, stay with bisection
     }
     clear();
   }

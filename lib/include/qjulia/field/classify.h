@@ -20,6 +20,9 @@ struct KernelSetup;
 struct Orbit {
   float field = 0;     ///< continuous F: < 0 in the solid, > 0 outside, never NaN
   int exit_step = -1;  ///< step n at which the orbit escaped / converged; -1 if it never did
+  /// The refinement value: max_k s_k (escape) or -min_k t_k (cut-off) over the orbit up to its
+  /// decision, clamped to +-1e6: <= 0 exactly in the solid, and continuous across the boundary.
+  float root = 0;
   Quat last;           ///< the last finite iterate
 };
 
@@ -45,6 +48,11 @@ class Classifier {
   /// @return the formula evaluations done (orbit steps, for speed figures)
   std::uint64_t field(const double* x, const double* y, const double* z, std::size_t n,
                       float* out) const;
+  /// The refinement values (Orbit::root) of n points at once: they have the sign of F, and
+  /// change smoothly where F has a kink (the two formulas of F meet at the boundary), so root
+  /// finding on them converges fast.
+  std::uint64_t root_field(const double* x, const double* y, const double* z, std::size_t n,
+                           float* out) const;
   /// "AVX3" (AVX-512), "AVX2" or "scalar": how field(x, y, z, n, out) runs.
   std::string evaluator() const;
   /// The vector kernel's setup, or null when field(x, y, z, n, out) runs point by point.
@@ -53,6 +61,8 @@ class Classifier {
   const Params& params() const { return params_; }
 
  private:
+  std::uint64_t values(const double* x, const double* y, const double* z, std::size_t n,
+                       float* out, bool root) const;
   Params params_;
   Formula formula_;
   std::shared_ptr<const detail::KernelSetup> kernel_;  // null: the scalar path
@@ -75,6 +85,10 @@ class Solid {
   /// @return the classifier's formula evaluations
   std::uint64_t field(const double* x, const double* y, const double* z, std::size_t n,
                       float* out) const;
+  /// The refinement values of the solid at n points (the classifier's, combined with the box
+  /// and clip constraints as field() does).
+  std::uint64_t root_field(const double* x, const double* y, const double* z, std::size_t n,
+                           float* out) const;
   /// Exact: in the box, on the kept side of every clip plane, and classified inside.
   bool inside(double x, double y, double z) const { return field(x, y, z) <= 0; }
   /// The signed distance to the box and clip constraints alone, model units (<= 0 where they
@@ -92,6 +106,8 @@ class Solid {
   bool has_clip() const { return !clip_.empty(); }
 
  private:
+  std::uint64_t values(const double* x, const double* y, const double* z, std::size_t n,
+                       float* out, bool root) const;
   Classifier classifier_;
   std::array<double, 3> min_, max_;
   std::vector<ClipPlane> clip_;  // normalised
