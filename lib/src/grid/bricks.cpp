@@ -68,6 +68,30 @@ struct Request {
 
 }  // namespace
 
+void Brick::unpack() {
+  if (full) return;
+  full.reset(new float[kBrickPoints]);
+  if (packed) {
+    std::size_t n = 0;
+    for (int p = 0; p < kBrickPoints; ++p)
+      if (known.test(p)) full[p] = packed[n++];
+    packed.reset();
+  }
+}
+
+void Brick::pack() {
+  if (!full) return;
+  const std::size_t n = known.count();
+  packed.reset(new float[std::max<std::size_t>(n, 1)]);
+  std::size_t k = 0;
+  for (int w = 0; w < (kBrickPoints + 63) / 64; ++w) {
+    rank[w] = static_cast<std::uint16_t>(k);
+    for (std::uint64_t bits = known.w[w]; bits; bits &= bits - 1)
+      packed[k++] = full[w * 64 + __builtin_ctzll(bits)];
+  }
+  full.reset();
+}
+
 bool virtual_value(const GridGeometry& geo, const Solid& solid, int i, int j, int k, float* v) {
   if (i < 0 || j < 0 || k < 0 || i >= geo.points[0] || j >= geo.points[1] || k >= geo.points[2]) {
     *v = 1.0f;
@@ -176,7 +200,7 @@ struct BrickSampler::Impl {
           const int p = point_index(g[0] - n->at.x * kBrick, g[1] - n->at.y * kBrick,
                                     g[2] - n->at.z * kBrick);
           if (n->known.test(p)) {
-            *v = n->value[p];
+            *v = n->get(p);
             return true;
           }
         }
@@ -211,8 +235,8 @@ struct BrickSampler::Impl {
       if (br.known.test(p)) return;
       br.known.set(p);
       const int g[3] = {br.at.x * kBrick + li, br.at.y * kBrick + lj, br.at.z * kBrick + lk};
-      if (map && g[0] >= 0 && g[1] >= 0 && g[2] >= 0 && lookup(br, a, g, &br.value[p])) return;
-      queue(b, g[0], g[1], g[2], &br.value[p]);
+      if (map && g[0] >= 0 && g[1] >= 0 && g[2] >= 0 && lookup(br, a, g, br.slot(p))) return;
+      queue(b, g[0], g[1], g[2], br.slot(p));
     });
   }
 
@@ -222,12 +246,12 @@ struct BrickSampler::Impl {
     Flagger f;
     for (int d = 0; d < 8; ++d) {
       const int a = i + (d & 1) * s, bb = j + ((d >> 1) & 1) * s, c = k + (d >> 2) * s;
-      f.add(br.value[point_index(a, bb, c)],
+      f.add(br.get(point_index(a, bb, c)),
             is_virtual(br.at.x * kBrick + a, br.at.y * kBrick + bb, br.at.z * kBrick + c));
     }
     if (centre) {
       const int a = i + s / 2, bb = j + s / 2, c = k + s / 2;
-      f.add(br.value[point_index(a, bb, c)],
+      f.add(br.get(point_index(a, bb, c)),
             is_virtual(br.at.x * kBrick + a, br.at.y * kBrick + bb, br.at.z * kBrick + c));
     }
     return f.refine(s > 1);
@@ -238,17 +262,21 @@ struct BrickSampler::Impl {
   // Level 8 of a candidate brick: its corners; true when it is to be refined.
   bool flag8(Brick& br, Batch& b) {
     const Around a = around(br);
+    br.unpack();
     need(br, a, b, [](auto&& at) {
       for (int d = 0; d < 8; ++d) at((d & 1) * kBrick, ((d >> 1) & 1) * kBrick, (d >> 2) * kBrick);
     });
     run(b);
-    return flag_cube(br, 0, 0, 0, kBrick, false);
+    const bool refine = flag_cube(br, 0, 0, 0, kBrick, false);
+    br.pack();
+    return refine;
   }
 
   // Runs the refinement of a brick from its requests; appends requests to its neighbours.
   void visit(Brick& br, std::uint8_t seed4, const std::vector<std::uint16_t>& seed_cells,
              bool refined8, Batch& b, std::vector<Request>& out) {
     const Around a = around(br);
+    br.unpack();
     // Level 4: the 27 points at stride 4; flagged 4-cells dilated by one 4-cell.
     if (refined8 && !br.started) {
       need(br, a, b, [](auto&& at) {
@@ -331,6 +359,7 @@ struct BrickSampler::Impl {
       br.done2 |= new2;
     }
     close(br, a, frontier, b, out);
+    br.pack();
   }
 
   bool in_range(const int nb[3]) const {
@@ -373,7 +402,7 @@ struct BrickSampler::Impl {
         int inside = 0;
         for (int d = 0; d < 8; ++d)
           inside += in[d] =
-              br.value[point_index(ci[0] + (d & 1), ci[1] + ((d >> 1) & 1), ci[2] + (d >> 2))] <= 0;
+              br.get(point_index(ci[0] + (d & 1), ci[1] + ((d >> 1) & 1), ci[2] + (d >> 2))) <= 0;
         if (inside == 0 || inside == 8) continue;
         br.surface.set(c);
         for (int axis = 0; axis < 3; ++axis)
@@ -464,6 +493,7 @@ BrickList BrickSampler::run() {
       im.check_cancel();
       thread_local Batch b;
       Brick& br = *list[n];
+      br.unpack();
       im.need(br, Impl::Around{}, b, [](auto&& at) {
         for (int i = 0; i < kSide; ++i)
           for (int j = 0; j < kSide; ++j)
@@ -480,10 +510,11 @@ BrickList BrickSampler::run() {
         int inside = 0;
         for (int d = 0; d < 8; ++d)
           inside +=
-              br.value[point_index(ci[0] + (d & 1), ci[1] + ((d >> 1) & 1), ci[2] + (d >> 2))] <= 0;
+              br.get(point_index(ci[0] + (d & 1), ci[1] + ((d >> 1) & 1), ci[2] + (d >> 2))) <= 0;
         br.visited.set(c);
         if (inside != 0 && inside != 8) br.surface.set(c);
       }
+      br.pack();
       const std::size_t k = ++done;
       if (k % 256 == 0) {
         std::lock_guard<std::mutex> lock(report_mutex);

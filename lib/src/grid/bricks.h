@@ -62,8 +62,7 @@ struct Bits {
 struct Brick {
   BrickCoord at;
   std::uint64_t key = 0;
-  float value[kBrickPoints];  ///< F at the known points (the virtual value outside the grid)
-  Bits<kBrickPoints> known;
+  Bits<kBrickPoints> known;   ///< points whose value is known
   std::uint8_t flagged4 = 0;  ///< 4-cells (of 8) flagged at stride 4, before dilation
   std::uint8_t refine4 = 0;   ///< 4-cells refined to stride 2
   std::uint8_t done4 = 0;     ///< 4-cells whose stride-2 points were evaluated and flagged
@@ -72,6 +71,25 @@ struct Brick {
   Bits<kBrickCells> surface;  ///< crossing cells: the ones to mesh
   Bits<kBrickCells> visited;  ///< cells the closure has looked at
   bool started = false;       ///< the stride-4 level ran
+
+  /// F at known point p (the virtual value outside the grid or a clip).
+  float get(int p) const {
+    if (full) return full[p];
+    const std::size_t r = rank[p >> 6];
+    const std::uint64_t below = known.w[p >> 6] & ((std::uint64_t{1} << (p & 63)) - 1);
+    return packed[r + static_cast<std::size_t>(__builtin_popcountll(below))];
+  }
+  /// Where the value of point p goes (the brick must be unpacked).
+  float* slot(int p) { return &full[p]; }
+  /// Values as an array of all 9^3 points, for sampling the brick.
+  void unpack();
+  /// Values of the known points only (about a third of the points): how bricks wait.
+  void pack();
+
+ private:
+  std::unique_ptr<float[]> full;                      // kBrickPoints values, while sampled
+  std::unique_ptr<float[]> packed;                    // the known values in point order, otherwise
+  std::uint16_t rank[(kBrickPoints + 63) / 64] = {};  // known points before each word
 };
 
 /// The bricks of a sampled grid, sorted by key.

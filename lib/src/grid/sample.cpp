@@ -75,7 +75,7 @@ void each_owned_point(const detail::Brick& b, const GridGeometry& geo, F&& f) {
         if (g[0] < 0 || g[1] < 0 || g[2] < 0 || g[0] >= geo.points[0] || g[1] >= geo.points[1] ||
             g[2] >= geo.points[2])
           continue;
-        f(g[0], g[1], g[2], b.value[p]);
+        f(g[0], g[1], g[2], b.get(p));
       }
 }
 

@@ -2,16 +2,34 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "surface/cube.h"
 #include "surface/refine.h"
 
 namespace qjulia::detail {
+namespace {
 
-BrickMesh mesh_brick(const Brick& br, const Solid& solid, const GridGeometry& geo,
-                     const BrickMeshOptions& opts) {
+// The corner values of local cell c.
+void cell_values(const Brick& br, int c, float v[8]) {
+  const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
+  for (int d = 0; d < 8; ++d)
+    v[d] = br.get(point_index(ci[0] + (d & 1), ci[1] + ((d >> 1) & 1), ci[2] + (d >> 2)));
+}
+
+// The edge code of cube edge e of local cell (ci).
+int code_of(const CubeTables& t, const int ci[3], int e) {
+  const int d0 = t.edge_corner[e];
+  return edge_code(ci[0] + corner_bit(d0, 0), ci[1] + corner_bit(d0, 1), ci[2] + corner_bit(d0, 2),
+                   t.edge_axis[e]);
+}
+
+}  // namespace
+
+BrickVertices brick_vertices(const Brick& br, const Solid& solid, const GridGeometry& geo,
+                             const BrickMeshOptions& opts) {
   const CubeTables& t = cube();
-  BrickMesh out;
+  BrickVertices out;
   out.key = br.key;
   const int base[3] = {br.at.x * kBrick, br.at.y * kBrick, br.at.z * kBrick};
   auto position = [&](int li, int lj, int lk) {
@@ -19,33 +37,39 @@ BrickMesh mesh_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
                                  geo.origin[1] + (base[1] + lj) * geo.voxel,
                                  geo.origin[2] + (base[2] + lk) * geo.voxel};
   };
-  // 1. The crossing edges of the surface cells (each once, by code).
-  std::vector<int> cells;
-  for (int c = 0; c < kBrickCells; ++c)
-    if (br.surface.test(c)) cells.push_back(c);
+  // The crossing edges of the surface cells that the brick owns, each once; the counts of the
+  // second pass from the cells' loops.
   Bits<kEdgeCodes> seen;
   std::vector<int> edges;
-  for (int c : cells) {
+  for (int c = 0; c < kBrickCells; ++c) {
+    if (!br.surface.test(c)) continue;
     const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
+    float v[8];
+    cell_values(br, c, v);
     for (int e = 0; e < 12; ++e) {
-      const int d0 = t.edge_corner[e], axis = t.edge_axis[e];
-      const int l[3] = {ci[0] + corner_bit(d0, 0), ci[1] + corner_bit(d0, 1),
-                        ci[2] + corner_bit(d0, 2)};
-      int h[3] = {l[0], l[1], l[2]};
-      ++h[axis];
-      const bool in_a = br.value[point_index(l[0], l[1], l[2])] <= 0;
-      const bool in_b = br.value[point_index(h[0], h[1], h[2])] <= 0;
-      if (in_a == in_b) continue;
-      const int code = edge_code(l[0], l[1], l[2], axis);
+      const int d0 = t.edge_corner[e], d1 = d0 | (1 << t.edge_axis[e]);
+      if ((v[d0] <= 0) == (v[d1] <= 0)) continue;
+      const int code = code_of(t, ci, e);
+      const int p = code / 3;
+      if (p / 81 == kBrick || (p / 9) % 9 == kBrick || p % 9 == kBrick) continue;  // not ours
       if (seen.test(code)) continue;
       seen.set(code);
       edges.push_back(code);
     }
+    const CellLoops loops = cell_loops(v);
+    for (int L = 0; L < loops.count; ++L) {
+      std::uint8_t tris[3 * 10];
+      const int n = triangulate_loop(
+          loops.edge[L], loops.length[L], [](int, int) { return 0.0; }, tris);
+      if (n > 0) {
+        out.triangles += static_cast<std::uint32_t>(n);
+      } else {
+        out.triangles += static_cast<std::uint32_t>(loops.length[L]);
+        ++out.centres;
+      }
+    }
   }
   std::sort(edges.begin(), edges.end());
-  // 2. Their vertices on the boundary, all at once. Edges owned by a neighbour (their lower
-  // point on an upper face of the brick) are refined here too, for the shape of the cells; the
-  // owner computes the same positions.
   std::vector<Segment> segs(edges.size());
   for (std::size_t i = 0; i < edges.size(); ++i) {
     const int code = edges[i], axis = code % 3, p = code / 3;
@@ -54,55 +78,52 @@ BrickMesh mesh_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
     ++h[axis];
     segs[i].a = position(l[0], l[1], l[2]);
     segs[i].b = position(h[0], h[1], h[2]);
-    segs[i].fa = br.value[point_index(l[0], l[1], l[2])];
-    segs[i].fb = br.value[point_index(h[0], h[1], h[2])];
+    segs[i].fa = br.get(point_index(l[0], l[1], l[2]));
+    segs[i].fb = br.get(point_index(h[0], h[1], h[2]));
   }
   std::vector<std::array<double, 3>> where(edges.size());
   out.evaluations += refine_segments(solid, segs.data(), segs.size(), opts.tolerance,
                                      opts.max_refine_steps, where.data());
-  // Owned edge vertices first, by code; a code -> local index map for the triangles.
-  int local[kEdgeCodes];
+  out.positions.resize(edges.size());
+  out.codes.resize(edges.size());
   for (std::size_t i = 0; i < edges.size(); ++i) {
-    const int code = edges[i], axis = code % 3, p = code / 3;
-    const int l[3] = {p / 81, (p / 9) % 9, p % 9};
-    (void)axis;
-    if (l[0] < kBrick && l[1] < kBrick && l[2] < kBrick) {
-      local[code] = static_cast<int>(out.positions.size());
-      out.codes.push_back(static_cast<std::uint16_t>(code));
-      out.positions.push_back({static_cast<float>(where[i][0]), static_cast<float>(where[i][1]),
-                               static_cast<float>(where[i][2])});
-    }
+    out.codes[i] = static_cast<std::uint16_t>(edges[i]);
+    out.positions[i] = {static_cast<float>(where[i][0]), static_cast<float>(where[i][1]),
+                        static_cast<float>(where[i][2])};
   }
-  auto ref_of = [&](int code) -> std::uint32_t {
+  return out;
+}
+
+BrickFaces brick_triangles(const Brick& br, const Solid& solid, const GridGeometry& geo,
+                           const BrickMeshOptions& opts, const MeshTarget& target) {
+  const CubeTables& t = cube();
+  BrickFaces out;
+  // The vertex of a local edge code: ours, or the neighbour's whose lower point it is.
+  auto vertex_of = [&](int code) -> std::uint32_t {
     const int p = code / 3;
     const int l[3] = {p / 81, (p / 9) % 9, p % 9};
     const int dir = (l[0] == kBrick) | ((l[1] == kBrick) << 1) | ((l[2] == kBrick) << 2);
-    if (dir == 0) return static_cast<std::uint32_t>(local[code]);
-    return foreign_ref(dir, edge_code(l[0] - kBrick * (dir & 1), l[1] - kBrick * ((dir >> 1) & 1),
-                                      l[2] - kBrick * (dir >> 2), code % 3));
+    const int own = edge_code(l[0] - kBrick * (dir & 1), l[1] - kBrick * ((dir >> 1) & 1),
+                              l[2] - kBrick * (dir >> 2), code % 3);
+    const std::vector<std::uint16_t>* codes = target.codes[dir];
+    if (!codes) throw std::logic_error("extract: a neighbour brick is missing");
+    const auto it = std::lower_bound(codes->begin(), codes->end(), own);
+    if (it == codes->end() || *it != own)
+      throw std::logic_error("extract: a neighbour brick lacks a shared vertex");
+    return static_cast<std::uint32_t>(target.base[dir] + (it - codes->begin()));
   };
-  auto point_of = [&](int code) -> const std::array<double, 3>& {
-    return where[std::lower_bound(edges.begin(), edges.end(), code) - edges.begin()];
-  };
-  // 3. Per cell: loops, each triangulated without a diagonal on a cube face, else around a
-  // centre vertex.
-  for (int c : cells) {
+  std::size_t face = target.face_base, centre = target.centre_base;
+  for (int c = 0; c < kBrickCells; ++c) {
+    if (!br.surface.test(c)) continue;
     const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
     float v[8];
-    for (int d = 0; d < 8; ++d)
-      v[d] = br.value[point_index(ci[0] + (d & 1), ci[1] + ((d >> 1) & 1), ci[2] + (d >> 2))];
+    cell_values(br, c, v);
     const CellLoops loops = cell_loops(v);
     for (int L = 0; L < loops.count; ++L) {
       const int len = loops.length[L];
       const int* loop = loops.edge[L];
-      int code[12];
       std::uint32_t ids[12];
-      for (int q = 0; q < len; ++q) {
-        const int e = loop[q], d0 = t.edge_corner[e];
-        code[q] = edge_code(ci[0] + corner_bit(d0, 0), ci[1] + corner_bit(d0, 1),
-                            ci[2] + corner_bit(d0, 2), t.edge_axis[e]);
-        ids[q] = ref_of(code[q]);
-      }
+      for (int q = 0; q < len; ++q) ids[q] = vertex_of(code_of(t, ci, loop[q]));
       // Segments of the loop on a face of the brick: shared with the neighbour brick.
       for (int q = 0; q < len; ++q) {
         const int e1 = loop[q], e2 = loop[(q + 1) % len];
@@ -119,30 +140,32 @@ BrickMesh mesh_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
           if (has1 && has2) out.border[2 * axis + side].push_back({ids[q], ids[(q + 1) % len]});
         }
       }
+      // Triangulate without a diagonal that joins two vertices of one cube face (the neighbour
+      // cell could make the same edge); else around a centre vertex.
       std::uint8_t tris[3 * 10];
       const int n = triangulate_loop(
           loop, len, [](int, int) { return 0.0; }, tris);
       if (n > 0) {
         for (int q = 0; q < n; ++q)
-          out.triangles.push_back({ids[tris[3 * q]], ids[tris[3 * q + 1]], ids[tris[3 * q + 2]]});
+          target.triangles[face++] = {ids[tris[3 * q]], ids[tris[3 * q + 1]], ids[tris[3 * q + 2]]};
         continue;
       }
-      std::array<double, 3> centre{0, 0, 0}, normal{0, 0, 0};
+      std::array<double, 3> mid{0, 0, 0}, normal{0, 0, 0};
       for (int q = 0; q < len; ++q) {
-        const auto& a = point_of(code[q]);
-        const auto& b = point_of(code[(q + 1) % len]);
-        for (int k = 0; k < 3; ++k) centre[k] += a[k] / len;
+        const auto& a = target.positions[ids[q]];
+        const auto& b = target.positions[ids[(q + 1) % len]];
+        for (int k = 0; k < 3; ++k) mid[k] += static_cast<double>(a[k]) / len;
         // Newell's normal of the loop.
-        normal[0] += (a[1] - b[1]) * (a[2] + b[2]);
-        normal[1] += (a[2] - b[2]) * (a[0] + b[0]);
-        normal[2] += (a[0] - b[0]) * (a[1] + b[1]);
+        normal[0] += (double(a[1]) - b[1]) * (double(a[2]) + b[2]);
+        normal[1] += (double(a[2]) - b[2]) * (double(a[0]) + b[0]);
+        normal[2] += (double(a[0]) - b[0]) * (double(a[1]) + b[1]);
       }
       const auto p =
-          project_to_boundary(solid, centre, normal, geo.voxel, opts.tolerance, &out.evaluations);
-      const std::uint32_t cid = static_cast<std::uint32_t>(out.positions.size());
-      out.positions.push_back(
-          {static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2])});
-      for (int q = 0; q < len; ++q) out.triangles.push_back({cid, ids[q], ids[(q + 1) % len]});
+          project_to_boundary(solid, mid, normal, geo.voxel, opts.tolerance, &out.evaluations);
+      const std::uint32_t cid = static_cast<std::uint32_t>(centre++);
+      target.positions[cid] = {static_cast<float>(p[0]), static_cast<float>(p[1]),
+                               static_cast<float>(p[2])};
+      for (int q = 0; q < len; ++q) target.triangles[face++] = {cid, ids[q], ids[(q + 1) % len]};
     }
   }
   return out;

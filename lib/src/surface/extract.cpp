@@ -19,8 +19,6 @@
 namespace qjulia {
 namespace {
 
-using detail::BrickMesh;
-
 // A small union-find over indices.
 struct UnionFind {
   std::vector<std::uint32_t> parent;
@@ -42,74 +40,86 @@ struct BrickMeasure {
   std::size_t problems = 0;    // half-edges inside the brick that do not pair up
   std::size_t degenerate = 0;  // faces with a repeated corner or no area
   // Local components (vertex-connected within the brick).
-  std::vector<std::uint32_t> owned_comp;  // per owned vertex
+  std::vector<std::uint32_t> owned_comp;  // per owned edge vertex
   struct Comp {
     std::size_t faces = 0, vertices = 0;
     double area = 0, volume = 0;
     std::array<double, 3> lo{HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
   };
   std::vector<Comp> comps;
-  std::vector<std::uint32_t> face_comp;                        // per face, local component
   std::vector<std::pair<std::uint32_t, std::uint32_t>> links;  // (foreign vertex, local comp)
 };
 
-// The measures of a brick's faces (global vertex ids), relative to `origin` for precision.
-template <class Position>
-BrickMeasure measure_brick(const BrickMesh& m, std::size_t first,
-                           const std::array<double, 3>& origin, const Position& foreign_position) {
+// The vertices and faces of one brick in the mesh: edge vertices [edge, edge + edges), centre
+// vertices [centre, centre + centres), faces [face, face + faces).
+struct BrickRange {
+  std::size_t edge = 0, edges = 0, centre = 0, centres = 0, face = 0, faces = 0;
+  bool owns(std::uint32_t v) const {
+    return (v >= edge && v < edge + edges) || (v >= centre && v < centre + centres);
+  }
+  std::uint32_t local(std::uint32_t v) const {
+    return static_cast<std::uint32_t>(v >= edge && v < edge + edges ? v - edge
+                                                                    : edges + (v - centre));
+  }
+};
+
+// Measures a brick's faces (written in `mesh` at r.face): area and signed volume relative to
+// `origin`, components within the brick, and the pairing of the half-edges inside the brick
+// (those on the brick's faces, `border`, pair with the neighbours'). Writes each face's local
+// component to face_comp.
+BrickMeasure measure_brick(const TriMesh& mesh, const BrickRange& r,
+                           const std::vector<std::array<std::uint32_t, 2>>* border,
+                           const std::array<double, 3>& origin, std::uint32_t* face_comp) {
   BrickMeasure bm;
-  const std::size_t owned = m.positions.size();
-  // Local slots: owned vertices, then foreign ones in order of appearance.
-  std::vector<std::uint32_t> foreign;  // sorted unique global ids of foreign corners
-  for (const auto& t : m.triangles)
-    for (std::uint32_t v : t)
-      if (v < first || v >= first + owned) foreign.push_back(v);
+  const std::size_t owned = r.edges + r.centres;
+  const auto* tri = mesh.triangles.data() + r.face;
+  // Local slots: owned vertices, then foreign ones.
+  std::vector<std::uint32_t> foreign;
+  for (std::size_t f = 0; f < r.faces; ++f)
+    for (std::uint32_t v : tri[f])
+      if (!r.owns(v)) foreign.push_back(v);
   std::sort(foreign.begin(), foreign.end());
   foreign.erase(std::unique(foreign.begin(), foreign.end()), foreign.end());
   auto slot = [&](std::uint32_t v) -> std::uint32_t {
-    if (v >= first && v < first + owned) return static_cast<std::uint32_t>(v - first);
+    if (r.owns(v)) return r.local(v);
     return static_cast<std::uint32_t>(
         owned + (std::lower_bound(foreign.begin(), foreign.end(), v) - foreign.begin()));
   };
   UnionFind uf(owned + foreign.size());
-  for (const auto& t : m.triangles) {
-    const std::uint32_t a = slot(t[0]), b = slot(t[1]), c = slot(t[2]);
+  for (std::size_t f = 0; f < r.faces; ++f) {
+    const std::uint32_t a = slot(tri[f][0]), b = slot(tri[f][1]), c = slot(tri[f][2]);
     uf.unite(a, b);
     uf.unite(b, c);
   }
-  // Components numbered by their smallest slot.
   std::vector<std::uint32_t> comp_of(owned + foreign.size(), UINT32_MAX);
   for (std::size_t s = 0; s < comp_of.size(); ++s) {
-    const std::uint32_t r = uf.find(static_cast<std::uint32_t>(s));
-    if (comp_of[r] == UINT32_MAX) {
-      comp_of[r] = static_cast<std::uint32_t>(bm.comps.size());
+    const std::uint32_t root = uf.find(static_cast<std::uint32_t>(s));
+    if (comp_of[root] == UINT32_MAX) {
+      comp_of[root] = static_cast<std::uint32_t>(bm.comps.size());
       bm.comps.emplace_back();
     }
-    comp_of[s] = comp_of[r];
+    comp_of[s] = comp_of[root];
   }
-  bm.owned_comp.assign(comp_of.begin(), comp_of.begin() + owned);
+  bm.owned_comp.assign(comp_of.begin(), comp_of.begin() + r.edges);
   for (std::size_t v = 0; v < owned; ++v) {
-    BrickMeasure::Comp& c = bm.comps[bm.owned_comp[v]];
+    BrickMeasure::Comp& c = bm.comps[comp_of[v]];
     ++c.vertices;
+    const auto& p = mesh.positions[v < r.edges ? r.edge + v : r.centre + (v - r.edges)];
     for (int a = 0; a < 3; ++a) {
-      c.lo[a] = std::min<double>(c.lo[a], m.positions[v][a]);
-      c.hi[a] = std::max<double>(c.hi[a], m.positions[v][a]);
+      c.lo[a] = std::min<double>(c.lo[a], p[a]);
+      c.hi[a] = std::max<double>(c.hi[a], p[a]);
     }
   }
   for (std::size_t f = 0; f < foreign.size(); ++f)
     bm.links.emplace_back(foreign[f], comp_of[owned + f]);
-  // Area and signed volume per face.
-  bm.face_comp.resize(m.triangles.size());
-  for (std::size_t f = 0; f < m.triangles.size(); ++f) {
-    const auto& t = m.triangles[f];
+  for (std::size_t f = 0; f < r.faces; ++f) {
+    const auto& t = tri[f];
     const std::uint32_t c = comp_of[slot(t[0])];
-    bm.face_comp[f] = c;
+    face_comp[f] = c;
     double p[3][3];
-    for (int k = 0; k < 3; ++k) {
-      const auto& q = t[k] >= first && t[k] < first + owned ? m.positions[t[k] - first]
-                                                            : foreign_position(t[k]);
-      for (int a = 0; a < 3; ++a) p[k][a] = static_cast<double>(q[a]) - origin[a];
-    }
+    for (int k = 0; k < 3; ++k)
+      for (int a = 0; a < 3; ++a)
+        p[k][a] = static_cast<double>(mesh.positions[t[k]][a]) - origin[a];
     const double e1[3] = {p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
     const double e2[3] = {p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
     const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
@@ -125,41 +135,34 @@ BrickMeasure measure_brick(const BrickMesh& m, std::size_t first,
     cm.volume += volume;
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || area == 0) ++bm.degenerate;
   }
-  // Half-edges: those inside the brick pair up here; those on the brick's faces are the
-  // border lists, matched with the neighbours.
-  struct Half {
-    std::uint32_t lo, hi;
-    bool forward;
-    bool operator<(const Half& o) const {
-      return lo != o.lo ? lo < o.lo : hi != o.hi ? hi < o.hi : forward < o.forward;
-    }
-  };
-  std::vector<Half> half;
-  half.reserve(3 * m.triangles.size());
-  for (const auto& t : m.triangles)
+  // Half-edges as 64-bit keys (smaller index high, larger low) with the direction in bit 0 of
+  // a separate flag: each edge inside the brick has its two half-edges here, opposite.
+  std::vector<std::uint64_t> half;
+  half.reserve(3 * r.faces);
+  for (std::size_t f = 0; f < r.faces; ++f)
     for (int k = 0; k < 3; ++k) {
-      const std::uint32_t a = t[k], b = t[(k + 1) % 3];
-      half.push_back({std::min(a, b), std::max(a, b), a < b});
+      const std::uint64_t a = tri[f][k], b = tri[f][(k + 1) % 3];
+      half.push_back(a < b ? (a << 33) | (b << 1) | 1u : (b << 33) | (a << 1));
     }
-  std::vector<Half> border;
-  for (const auto& list : m.border)
-    for (const auto& e : list)
-      border.push_back({std::min(e[0], e[1]), std::max(e[0], e[1]), e[0] < e[1]});
+  std::vector<std::uint64_t> edge_of_border;
+  for (int d = 0; d < 6; ++d)
+    for (const auto& e : border[d]) {
+      const std::uint64_t a = e[0], b = e[1];
+      edge_of_border.push_back(a < b ? (a << 33) | (b << 1) | 1u : (b << 33) | (a << 1));
+    }
   std::sort(half.begin(), half.end());
-  std::sort(border.begin(), border.end());
+  std::sort(edge_of_border.begin(), edge_of_border.end());
   std::size_t bi = 0;
   for (std::size_t i = 0; i < half.size();) {
     std::size_t j = i;
-    while (j < half.size() && half[j].lo == half[i].lo && half[j].hi == half[i].hi) ++j;
+    while (j < half.size() && (half[j] >> 1) == (half[i] >> 1)) ++j;
     const std::size_t count = j - i;
-    if (count == 2 && half[i].forward != half[i + 1].forward) {
+    if (count == 2 && half[i] != half[i + 1]) {
       ++bm.edges;
     } else if (count == 1) {
-      // Must be a border half-edge (matched with the neighbour later).
-      while (bi < border.size() && border[bi] < half[i]) ++bi;
-      if (!(bi < border.size() && border[bi].lo == half[i].lo && border[bi].hi == half[i].hi &&
-            border[bi].forward == half[i].forward))
-        ++bm.problems;
+      // A border half-edge, paired with the neighbour's later.
+      while (bi < edge_of_border.size() && edge_of_border[bi] < half[i]) ++bi;
+      if (!(bi < edge_of_border.size() && edge_of_border[bi] == half[i])) ++bm.problems;
     } else {
       bm.problems += count;
     }
@@ -168,93 +171,116 @@ BrickMeasure measure_brick(const BrickMesh& m, std::size_t first,
   return bm;
 }
 
-// Meshes every brick (in parallel, any order), then joins them in key order: vertices numbered
-// brick after brick, corners on a neighbour's edge resolved through the neighbour's sorted edge
-// codes. The measures come out of the bricks: each measures its faces and pairs the half-edges
-// inside it; the half-edges on a brick face pair with the neighbour's across it; components
-// merge through the shared vertices. With `release`, each brick's values go as soon as it is
-// meshed and each brick's mesh as soon as it is joined, so memory holds about one copy of the
-// mesh.
+// Meshes the bricks in two parallel passes and measures the mesh as it is made. Pass one: each
+// brick's vertices (numbered brick after brick in key order, then the centre vertices) and
+// counts. Pass two: each brick writes its triangles in place (corners on a neighbour's edges
+// found through the neighbour's sorted edge codes) and measures them; the half-edges on brick
+// faces pair with the neighbour's across; components merge through the shared vertices. With
+// `release`, each brick's values go once it is meshed, so the grid and the mesh are never both
+// whole in memory.
 TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptions& opts,
                        ExtractStats* stats) {
   auto report = [&](double f) {
     if (opts.cancel && opts.cancel->requested()) throw Cancelled();
     if (opts.progress && !opts.progress(f)) throw Cancelled();
   };
+  if (release) {  // bricks without surface cells are not needed any more
+    impl.bricks.erase(
+        std::remove_if(impl.bricks.begin(), impl.bricks.end(),
+                       [](const std::unique_ptr<detail::Brick>& b) { return !b->surface.any(); }),
+        impl.bricks.end());
+    malloc_trim(0);
+  }
   const std::size_t nb = impl.bricks.size();
-  std::vector<BrickMesh> meshes(nb);
   detail::BrickMeshOptions bopts;
   bopts.tolerance = opts.tolerance;
   bopts.max_refine_steps = opts.max_refine_steps;
-  std::atomic<std::size_t> done{0};
   std::mutex report_mutex;
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, nb, 4), [&](const tbb::blocked_range<std::size_t>& r) {
-        if (opts.cancel && opts.cancel->requested()) throw Cancelled();
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          meshes[i] = detail::mesh_brick(*impl.bricks[i], *impl.solid, impl.geometry, bopts);
-          if (release) impl.bricks[i].reset();
-        }
-        const std::size_t k = done += r.size();
-        if ((k / 64) != ((k - r.size()) / 64)) {
-          std::lock_guard<std::mutex> lock(report_mutex);
-          report(0.7 * k / nb);
-        }
-      });
-  if (release) {
-    impl.bricks.clear();
-    impl.bricks.shrink_to_fit();
-  }
-  // Vertex numbers: brick after brick.
-  std::vector<std::size_t> first(nb + 1, 0), first_face(nb + 1, 0);
+  auto each_brick = [&](double from, double to, auto&& f) {
+    std::atomic<std::size_t> done{0};
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nb, 4),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        if (opts.cancel && opts.cancel->requested()) throw Cancelled();
+                        for (std::size_t i = r.begin(); i != r.end(); ++i) f(i);
+                        const std::size_t k = done += r.size();
+                        if ((k / 64) != ((k - r.size()) / 64)) {
+                          std::lock_guard<std::mutex> lock(report_mutex);
+                          report(from + (to - from) * k / nb);
+                        }
+                      });
+  };
+  // Pass one.
+  std::vector<detail::BrickVertices> verts(nb);
+  each_brick(0.0, 0.45, [&](std::size_t i) {
+    verts[i] = detail::brick_vertices(*impl.bricks[i], *impl.solid, impl.geometry, bopts);
+  });
+  std::vector<BrickRange> range(nb);
+  std::size_t edges_total = 0, centres_total = 0, faces_total = 0;
   std::uint64_t evaluations = 0;
   for (std::size_t i = 0; i < nb; ++i) {
-    first[i + 1] = first[i] + meshes[i].positions.size();
-    first_face[i + 1] = first_face[i] + meshes[i].triangles.size();
-    evaluations += meshes[i].evaluations;
+    range[i].edge = edges_total;
+    range[i].edges = verts[i].positions.size();
+    range[i].face = faces_total;
+    range[i].faces = verts[i].triangles;
+    range[i].centres = verts[i].centres;
+    edges_total += range[i].edges;
+    faces_total += range[i].faces;
+    centres_total += range[i].centres;
+    evaluations += verts[i].evaluations;
   }
-  if (first[nb] > 0xffffffffu)
-    throw TooLarge("the mesh has " + std::to_string(first[nb]) +
+  for (std::size_t i = 0, c = edges_total; i < nb; ++i) {
+    range[i].centre = c;
+    c += range[i].centres;
+  }
+  if (edges_total + centres_total > 0xffffffffu)
+    throw TooLarge("the mesh has " + std::to_string(edges_total + centres_total) +
                    " vertices; 32-bit indices hold at most 4294967295");
+  TriMesh mesh;
+  mesh.positions.resize(edges_total + centres_total);
+  mesh.triangles.resize(faces_total);
+  for (std::size_t i = 0; i < nb; ++i) {
+    std::copy(verts[i].positions.begin(), verts[i].positions.end(),
+              mesh.positions.begin() + range[i].edge);
+    std::vector<std::array<float, 3>>().swap(verts[i].positions);
+  }
   std::unordered_map<std::uint64_t, std::size_t> index;
   index.reserve(nb * 2);
-  for (std::size_t i = 0; i < nb; ++i) index.emplace(meshes[i].key, i);
+  for (std::size_t i = 0; i < nb; ++i) index.emplace(verts[i].key, i);
   auto neighbour = [&](std::size_t i, int dx, int dy, int dz) -> std::ptrdiff_t {
-    const detail::BrickCoord at = detail::brick_of_key(meshes[i].key);
+    const detail::BrickCoord at = detail::brick_of_key(verts[i].key);
     const auto it = index.find(detail::brick_key(at.x + dx, at.y + dy, at.z + dz));
     return it == index.end() ? -1 : static_cast<std::ptrdiff_t>(it->second);
   };
-  // Resolve the corners on neighbours' edges (in parallel, in place).
-  auto resolve = [&](std::size_t i, std::uint32_t v) -> std::uint32_t {
-    if (!(v & detail::kForeign)) return static_cast<std::uint32_t>(first[i] + v);
-    const int dir = (v >> 12) & 7, code = v & 0xfff;
-    const std::ptrdiff_t n = neighbour(i, dir & 1, (dir >> 1) & 1, dir >> 2);
-    if (n < 0) throw std::logic_error("extract: a neighbour brick is missing");
-    const BrickMesh& m = meshes[n];
-    const auto c = std::lower_bound(m.codes.begin(), m.codes.end(), code);
-    if (c == m.codes.end() || *c != code)
-      throw std::logic_error("extract: a neighbour brick lacks a shared vertex");
-    return static_cast<std::uint32_t>(first[n] + (c - m.codes.begin()));
-  };
-  tbb::parallel_for(std::size_t{0}, nb, [&](std::size_t i) {
-    for (auto& tri : meshes[i].triangles)
-      for (std::uint32_t& v : tri) v = resolve(i, v);
-    for (auto& list : meshes[i].border)
-      for (auto& e : list) {
-        e[0] = resolve(i, e[0]);
-        e[1] = resolve(i, e[1]);
-      }
-  });
-  // Measures per brick.
-  auto position_of = [&](std::uint32_t v) -> const std::array<float, 3>& {
-    const std::size_t b = std::upper_bound(first.begin(), first.end(), v) - first.begin() - 1;
-    return meshes[b].positions[v - first[b]];
-  };
+  // Pass two, with the measures of each brick.
   const std::array<double, 3> origin = impl.geometry.origin;
+  std::vector<detail::BrickFaces> faces(nb);
   std::vector<BrickMeasure> bm(nb);
-  tbb::parallel_for(std::size_t{0}, nb, [&](std::size_t i) {
-    bm[i] = measure_brick(meshes[i], first[i], origin, position_of);
+  std::vector<std::uint32_t> face_component(faces_total);
+  each_brick(0.45, 0.9, [&](std::size_t i) {
+    detail::MeshTarget target;
+    target.positions = mesh.positions.data();
+    target.triangles = mesh.triangles.data();
+    target.vertex_base = range[i].edge;
+    target.centre_base = range[i].centre;
+    target.face_base = range[i].face;
+    for (int dir = 0; dir < 8; ++dir) {
+      const std::ptrdiff_t n = dir == 0 ? static_cast<std::ptrdiff_t>(i)
+                                        : neighbour(i, dir & 1, (dir >> 1) & 1, dir >> 2);
+      if (n < 0) continue;
+      target.codes[dir] = &verts[n].codes;
+      target.base[dir] = range[n].edge;
+    }
+    faces[i] = detail::brick_triangles(*impl.bricks[i], *impl.solid, impl.geometry, bopts, target);
+    if (release) impl.bricks[i].reset();
+    bm[i] = measure_brick(mesh, range[i], faces[i].border, origin,
+                          face_component.data() + range[i].face);
   });
+  if (release) {
+    impl.bricks.clear();
+    impl.bricks.shrink_to_fit();
+    malloc_trim(0);
+  }
+  for (std::size_t i = 0; i < nb; ++i) evaluations += faces[i].evaluations;
   // The half-edges on brick faces: each brick's +x, +y, +z lists against the neighbour's -x,
   // -y, -z lists, reversed.
   std::vector<std::size_t> border_edges(nb, 0), border_problems(nb, 0);
@@ -263,10 +289,10 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
       auto key = [](const std::array<std::uint32_t, 2>& e) {
         return std::make_pair(std::min(e[0], e[1]), std::max(e[0], e[1]));
       };
-      std::vector<std::array<std::uint32_t, 2>> up = meshes[i].border[2 * axis + 1];
+      std::vector<std::array<std::uint32_t, 2>> up = faces[i].border[2 * axis + 1];
       const std::ptrdiff_t n = neighbour(i, axis == 0, axis == 1, axis == 2);
       std::vector<std::array<std::uint32_t, 2>> down;
-      if (n >= 0) down = meshes[n].border[2 * axis];
+      if (n >= 0) down = faces[n].border[2 * axis];
       auto less = [&](const auto& a, const auto& b) { return key(a) < key(b); };
       std::sort(up.begin(), up.end(), less);
       std::sort(down.begin(), down.end(), less);
@@ -288,19 +314,26 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
     // A -x, -y, -z face with no neighbour leaves its border open.
     for (int axis = 0; axis < 3; ++axis)
       if (neighbour(i, -(axis == 0), -(axis == 1), -(axis == 2)) < 0)
-        border_problems[i] += meshes[i].border[2 * axis].size();
+        border_problems[i] += faces[i].border[2 * axis].size();
   });
   // Components across bricks: local components joined through the vertices they share.
   std::vector<std::size_t> comp_first(nb + 1, 0);
   for (std::size_t i = 0; i < nb; ++i) comp_first[i + 1] = comp_first[i] + bm[i].comps.size();
   UnionFind uf(comp_first[nb]);
+  // The owner of a shared vertex: the brick whose edge vertices hold it (centre vertices are
+  // never shared).
+  std::vector<std::size_t> edge_first(nb);
+  for (std::size_t i = 0; i < nb; ++i) edge_first[i] = range[i].edge;
   for (std::size_t i = 0; i < nb; ++i)
     for (const auto& [v, c] : bm[i].links) {
-      const std::size_t owner = std::upper_bound(first.begin(), first.end(), v) - first.begin() - 1;
-      uf.unite(
-          static_cast<std::uint32_t>(comp_first[i] + c),
-          static_cast<std::uint32_t>(comp_first[owner] + bm[owner].owned_comp[v - first[owner]]));
+      const std::size_t owner =
+          std::upper_bound(edge_first.begin(), edge_first.end(), v) - edge_first.begin() - 1;
+      uf.unite(static_cast<std::uint32_t>(comp_first[i] + c),
+               static_cast<std::uint32_t>(comp_first[owner] +
+                                          bm[owner].owned_comp[v - range[owner].edge]));
     }
+  faces.clear();
+  faces.shrink_to_fit();
   MeshMeasure m;
   std::size_t problems = 0, degenerate = 0;
   std::vector<std::uint32_t> root_index(comp_first[nb], UINT32_MAX);
@@ -334,35 +367,17 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
       }
     }
   }
-  report(0.8);
-  // Join, freeing each brick's part as it is copied; each face gets its component.
-  TriMesh mesh;
-  mesh.positions.reserve(first[nb]);
-  mesh.triangles.reserve(first_face[nb]);
-  std::vector<std::uint32_t> face_component;
-  face_component.reserve(first_face[nb]);
-  std::size_t freed = 0;
-  for (std::size_t i = 0; i < nb; ++i) {
-    BrickMesh& bmesh = meshes[i];
-    mesh.positions.insert(mesh.positions.end(), bmesh.positions.begin(), bmesh.positions.end());
-    mesh.triangles.insert(mesh.triangles.end(), bmesh.triangles.begin(), bmesh.triangles.end());
-    for (std::uint32_t c : bm[i].face_comp)
-      face_component.push_back(root_index[uf.find(static_cast<std::uint32_t>(comp_first[i] + c))]);
-    freed += bmesh.positions.size() * 12 + bmesh.triangles.size() * 12;
-    std::vector<std::array<float, 3>>().swap(bmesh.positions);
-    std::vector<std::array<std::uint32_t, 3>>().swap(bmesh.triangles);
-    for (auto& list : bmesh.border) std::vector<std::array<std::uint32_t, 2>>().swap(list);
-    std::vector<std::uint32_t>().swap(bm[i].face_comp);
-    if (release && freed > (std::size_t{64} << 20)) {
-      malloc_trim(0);  // return the freed pages now: the copy grows as the parts shrink
-      freed = 0;
-    }
-  }
-  meshes.clear();
-  meshes.shrink_to_fit();
+  report(0.95);
+  // Each face's component: its brick's local component, merged.
+  tbb::parallel_for(std::size_t{0}, nb, [&](std::size_t i) {
+    for (std::size_t f = range[i].face; f < range[i].face + range[i].faces; ++f)
+      face_component[f] =
+          root_index[uf.find(static_cast<std::uint32_t>(comp_first[i] + face_component[f]))];
+  });
+  verts.clear();
+  verts.shrink_to_fit();
   bm.clear();
   bm.shrink_to_fit();
-  if (release) malloc_trim(0);
   // The measures. Closed by construction, which the pairing checked: then every vertex's
   // faces form one fan (each grid edge's vertex lies in one loop of each cell around the edge,
   // and the loops of neighbouring cells share their segments), Euler per component is

@@ -122,7 +122,8 @@ std::uint64_t refine_segments(const Solid& solid, const Segment* seg, std::size_
       }
       double t = smooth ? (s.glo * s.hi - s.ghi * s.lo) / (s.glo - s.ghi) : 0.5 * (s.lo + s.hi);
       const double margin = 0.01 * (s.hi - s.lo);
-      if (!(t > s.lo + margin && t < s.hi - margin)) t = std::clamp(t, s.lo + margin, s.hi - margin);
+      if (!(t > s.lo + margin && t < s.hi - margin))
+        t = std::clamp(t, s.lo + margin, s.hi - margin);
       queue(i, t);
     }
     if (which.empty()) break;
