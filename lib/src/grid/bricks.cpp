@@ -1,7 +1,10 @@
 #include "grid/bricks.h"
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
+
+#include <malloc.h>
 
 #include <algorithm>
 #include <cmath>
@@ -64,6 +67,13 @@ struct Request {
   std::uint64_t key;
   std::uint8_t refine4 = 0;
   std::uint16_t cell = 0xffff;  // local cell index, or none
+};
+
+// What a visit sends on: requests to bricks that do not exist yet (created after the class),
+// and existing bricks whose inbox it filled (to visit).
+struct Outbox {
+  std::vector<Request> missing;
+  std::vector<Brick*> schedule;
 };
 
 }  // namespace
@@ -156,10 +166,10 @@ struct BrickSampler::Impl {
   // not change while it runs, and which brick evaluates a shared point does not depend on the
   // thread count.
   struct Around {
-    const Brick* n[27] = {};
+    Brick* n[27] = {};
   };
   const std::unordered_map<std::uint64_t, std::unique_ptr<Brick>>* map = nullptr;
-  const Brick* find(std::uint64_t key) const {
+  Brick* find(std::uint64_t key) const {
     const auto it = map->find(key);
     return it == map->end() ? nullptr : it->second.get();
   }
@@ -273,10 +283,37 @@ struct BrickSampler::Impl {
   }
 
   // Runs the refinement of a brick from its requests; appends requests to its neighbours.
-  void visit(Brick& br, std::uint8_t seed4, const std::vector<std::uint16_t>& seed_cells,
-             bool refined8, Batch& b, std::vector<Request>& out) {
+  // Puts a request in the inbox of the neighbour, or in `out` when that brick does not exist.
+  void deliver(const Around& a, const Brick& br, const Request& r, Outbox& out) const {
+    const BrickCoord to = brick_of_key(r.key);
+    Brick* n = a.n[(to.x - br.at.x + 1) * 9 + (to.y - br.at.y + 1) * 3 + (to.z - br.at.z + 1)];
+    if (!n) {
+      out.missing.push_back(r);
+      return;
+    }
+    deposit(*n, r, out);
+  }
+  static void deposit(Brick& n, const Request& r, Outbox& out) {
+    bool fresh = false;
+    if (r.refine4 & static_cast<std::uint8_t>(~n.refine4))
+      fresh = (n.inbox4.fetch_or(r.refine4) & r.refine4) != r.refine4 || fresh;
+    if (r.cell != 0xffff && !n.visited.test(r.cell)) {
+      const std::uint64_t bit = std::uint64_t{1} << (r.cell & 63);
+      fresh = !(n.inbox_cells[r.cell >> 6].fetch_or(bit) & bit) || fresh;
+    }
+    if (fresh && !n.scheduled.exchange(true)) out.schedule.push_back(&n);
+  }
+
+  void visit(Brick& br, Batch& b, Outbox& out) {
     const Around a = around(br);
     br.unpack();
+    // What the neighbours asked for since the last visit.
+    std::uint8_t seed4 = br.inbox4.exchange(0);
+    std::vector<std::uint16_t> seed_cells;
+    for (int w = 0; w < kBrickCells / 64; ++w)
+      for (std::uint64_t bits = br.inbox_cells[w].exchange(0); bits; bits &= bits - 1)
+        seed_cells.push_back(static_cast<std::uint16_t>(w * 64 + __builtin_ctzll(bits)));
+    const bool refined8 = br.refined8;
     // Level 4: the 27 points at stride 4; flagged 4-cells dilated by one 4-cell.
     if (refined8 && !br.started) {
       need(br, a, b, [](auto&& at) {
@@ -303,8 +340,9 @@ struct BrickSampler::Impl {
               } else {
                 const int nb[3] = {br.at.x + bo[0], br.at.y + bo[1], br.at.z + bo[2]};
                 if (!in_range(nb)) continue;
-                out.push_back(
-                    {brick_key(nb[0], nb[1], nb[2]), static_cast<std::uint8_t>(1u << lq)});
+                deliver(a, br,
+                        {brick_key(nb[0], nb[1], nb[2]), static_cast<std::uint8_t>(1u << lq)},
+                        out);
               }
             }
       }
@@ -371,7 +409,7 @@ struct BrickSampler::Impl {
   // The closure: a crossing cell whose face has a sign change continues into the cell across
   // that face, which is then examined too (in this brick, or by a request to the neighbour).
   void close(Brick& br, const Around& a, std::vector<std::uint16_t> frontier, Batch& b,
-             std::vector<Request>& out) {
+             Outbox& out) {
     std::vector<std::uint16_t> next;
     while (!frontier.empty()) {
       // Corners of the cells not yet visited.
@@ -429,7 +467,7 @@ struct BrickSampler::Impl {
               if (known && known->visited.test(nc)) continue;
               Request r{brick_key(nb[0], nb[1], nb[2])};
               r.cell = nc;
-              out.push_back(r);
+              deliver(a, br, r, out);
             }
           }
       }
@@ -626,57 +664,55 @@ BrickList BrickSampler::run() {
     refined8.erase(std::unique(refined8.begin(), refined8.end()), refined8.end());
     report(0.1);
 
-    // Levels 4, 2, 1 and the closure, in waves: a wave visits bricks with new requests.
-    struct Work {
-      std::uint64_t key;
-      std::uint8_t seed4 = 0;
-      std::vector<std::uint16_t> cells;
-      bool refined8 = false;
-    };
-    std::vector<Work> wave;
+    // Levels 4, 2, 1 and the closure. Bricks are visited class by class (coordinate parity);
+    // a visit leaves requests in the inboxes of its neighbours, which are visited when their
+    // class comes (in this round, or in the next for the classes already done), until no
+    // request is left. Which bricks a class visits depends only on the classes before it, so
+    // the result does not depend on the thread count.
+    auto class_of = [](const Brick& b) { return (b.at.x & 1) | ((b.at.y & 1) << 1) | ((b.at.z & 1) << 2); };
+    std::vector<Brick*> pending[8];
     for (std::uint64_t k : refined8) {
-      get(k);
-      wave.push_back({k, 0, {}, true});
+      Brick& b = get(k);
+      b.refined8 = true;
+      b.scheduled = true;
+      pending[class_of(b)].push_back(&b);
     }
-    int waves = 0;
-    while (!wave.empty()) {
-      std::vector<Brick*> targets(wave.size());
-      for (std::size_t n = 0; n < wave.size(); ++n) targets[n] = &get(wave[n].key);
-      std::vector<std::vector<Request>> requests(wave.size());
-      std::atomic<std::size_t> done{0};
-      std::mutex report_mutex;
-      std::vector<std::uint64_t> keys(wave.size());
-      for (std::size_t n = 0; n < wave.size(); ++n) keys[n] = wave[n].key;
-      by_class(keys, [&](std::size_t n, Batch& b) {
-        im.visit(*targets[n], wave[n].seed4, wave[n].cells, wave[n].refined8, b, requests[n]);
-        const std::size_t k = ++done;
-        if (waves == 0 && k % 256 == 0) {
+    std::size_t visits = 0, first_round = refined8.size();
+    std::mutex report_mutex;
+    for (bool any = true; any;) {
+      any = false;
+      for (int k = 0; k < 8; ++k) {
+        std::vector<Brick*> members;
+        members.swap(pending[k]);
+        if (members.empty()) continue;
+        any = true;
+        // A fixed order, whatever order the requests came in.
+        std::sort(members.begin(), members.end(),
+                  [](const Brick* a, const Brick* b) { return a->key < b->key; });
+        for (Brick* b : members) b->scheduled = false;
+        tbb::enumerable_thread_specific<Outbox> outboxes;
+        tbb::parallel_for(std::size_t{0}, members.size(), [&](std::size_t n) {
+          im.check_cancel();
+          thread_local Batch b;
+          im.visit(*members[n], b, outboxes.local());
+        });
+        visits += members.size();
+        {
           std::lock_guard<std::mutex> lock(report_mutex);
-          report(0.1 + 0.75 * k / wave.size());
+          report(0.1 + 0.75 * std::min(1.0, double(visits) / (1.25 * first_round + 1)));
         }
-      });
-      ++waves;
-      // The next wave: requests merged per brick, without what the brick already has.
-      std::vector<Request> all;
-      for (auto& r : requests) all.insert(all.end(), r.begin(), r.end());
-      std::sort(all.begin(), all.end(), [](const Request& a, const Request& b) {
-        return a.key != b.key ? a.key < b.key : a.cell < b.cell;
-      });
-      std::vector<Work> next;
-      for (std::size_t i = 0; i < all.size();) {
-        std::size_t j = i;
-        Work w{all[i].key};
-        Brick& br = get(all[i].key);
-        for (; j < all.size() && all[j].key == all[i].key; ++j) {
-          w.seed4 |= all[j].refine4 & static_cast<std::uint8_t>(~br.refine4);
-          if (all[j].cell != 0xffff && !br.visited.test(all[j].cell) &&
-              (w.cells.empty() || w.cells.back() != all[j].cell))
-            w.cells.push_back(all[j].cell);
-        }
-        if (w.seed4 || !w.cells.empty()) next.push_back(std::move(w));
-        i = j;
+        // Bricks asked for that do not exist yet; then the schedules, by class.
+        std::vector<Request> missing;
+        for (Outbox& o : outboxes) missing.insert(missing.end(), o.missing.begin(), o.missing.end());
+        std::sort(missing.begin(), missing.end(),
+                  [](const Request& a, const Request& b) { return a.key < b.key; });
+        Outbox created;
+        for (const Request& r : missing) Impl::deposit(get(r.key), r, created);
+        for (Brick* b : created.schedule) pending[class_of(*b)].push_back(b);
+        for (Outbox& o : outboxes)
+          for (Brick* b : o.schedule) pending[class_of(*b)].push_back(b);
       }
-      wave.swap(next);
+      malloc_trim(0);  // the values of the visited bricks were repacked
     }
   }
   evaluations_ = im.evaluations;

@@ -5,6 +5,7 @@
 // brick can decide its cells alone), which of them are known, and which of its cells carry the
 // surface. Cells range over -1 .. points - 1 per axis, so bricks start at -1.
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -71,6 +72,12 @@ struct Brick {
   Bits<kBrickCells> surface;  ///< crossing cells: the ones to mesh
   Bits<kBrickCells> visited;  ///< cells the closure has looked at
   bool started = false;       ///< the stride-4 level ran
+  bool refined8 = false;      ///< flagged (or dilated) at stride 8: runs the stride-4 level
+  /// Requests of neighbours waiting for the brick's next visit: 4-cells to refine, cells to
+  /// look at. Neighbours of other classes write them while the brick waits.
+  std::atomic<std::uint8_t> inbox4{0};
+  std::atomic<std::uint64_t> inbox_cells[kBrickCells / 64] = {};
+  std::atomic<bool> scheduled{false};  ///< in a class's list for a visit
 
   /// F at known point p (the virtual value outside the grid or a clip).
   float get(int p) const {

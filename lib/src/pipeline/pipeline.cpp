@@ -90,6 +90,7 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
                                    : kDefaultDustVoxels * voxel * voxel * voxel;
       creport = detail::remove_dust(mesh, estats, threshold);
       known = std::move(estats.measure);
+      std::vector<std::uint32_t>().swap(estats.face_component);  // not needed any more
     } else {
       CleanOptions copts;
       copts.min_component_volume = params.mesh.min_component;
