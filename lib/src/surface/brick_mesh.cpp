@@ -118,34 +118,23 @@ BrickFaces brick_triangles(const Brick& br, const Solid& solid, const GridGeomet
     const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
     float v[8];
     cell_values(br, c, v);
-    const CellLoops loops = cell_loops(v);
-    for (int L = 0; L < loops.count; ++L) {
-      const int len = loops.length[L];
-      const int* loop = loops.edge[L];
+    const CellCase& cc = cell_case(v);
+    for (int L = 0; L < cc.loops; ++L) {
+      const int len = cc.length[L];
+      const std::uint8_t* loop = cc.edge[L];
       std::uint32_t ids[12];
       for (int q = 0; q < len; ++q) ids[q] = vertex_of(code_of(t, ci, loop[q]));
       // Segments of the loop on a face of the brick: shared with the neighbour brick.
       for (int q = 0; q < len; ++q) {
-        const int e1 = loop[q], e2 = loop[(q + 1) % len];
-        for (int f = 0; f < 6; ++f) {
-          const int axis = t.face_axis[f], side = t.face_side[f];
-          if (ci[axis] != (side ? kBrick - 1 : 0)) continue;
-          const auto& fc = t.face_corners[f];
-          bool has1 = false, has2 = false;
-          for (int k = 0; k < 4; ++k) {
-            const int e = t.edge_of[fc[k]][fc[(k + 1) % 4]];
-            has1 = has1 || e == e1;
-            has2 = has2 || e == e2;
-          }
-          if (has1 && has2) out.border[2 * axis + side].push_back({ids[q], ids[(q + 1) % len]});
-        }
+        const int f = cc.face[L][q], axis = t.face_axis[f], side = t.face_side[f];
+        if (ci[axis] == (side ? kBrick - 1 : 0))
+          out.border[2 * axis + side].push_back({ids[q], ids[(q + 1) % len]});
       }
-      // Triangulate without a diagonal that joins two vertices of one cube face (the neighbour
-      // cell could make the same edge); else around a centre vertex.
-      std::uint8_t tris[3 * 10];
-      const int n = triangulate_loop(
-          loop, len, [](int, int) { return 0.0; }, tris);
+      // Triangulated without a diagonal that joins two vertices of one cube face (the
+      // neighbour cell could make the same edge); else around a centre vertex.
+      const int n = cc.triangles[L];
       if (n > 0) {
+        const std::uint8_t* tris = cc.tri[L];
         for (int q = 0; q < n; ++q)
           target.triangles[face++] = {ids[tris[3 * q]], ids[tris[3 * q + 1]], ids[tris[3 * q + 2]]};
         continue;

@@ -1,6 +1,7 @@
 #include "surface/cube.h"
 
 #include <utility>
+#include <vector>
 
 namespace qjulia::detail {
 
@@ -39,7 +40,21 @@ const CubeTables& cube() {
   return t;
 }
 
-CellLoops cell_loops(const float v[8]) {
+namespace {
+
+// The ambiguous-face decider (saddle inside) for face f of a cell with values v.
+bool saddle_inside(const CubeTables& t, const float v[8], int f) {
+  const auto& fc = t.face_corners[f];
+  const double a = v[fc[0]], b = v[fc[1]], cc = v[fc[2]], d = v[fc[3]];
+  const double den = a + cc - b - d;
+  return den != 0 && (a * cc - b * d) / den <= 0;
+}
+
+// The loops of a cell with the given corner signs (bit d: corner d inside) and decider answers
+// (bit f: saddle of ambiguous face f inside).
+CellLoops loops_of_case(int signs, int saddles) {
+  float v[8];
+  for (int d = 0; d < 8; ++d) v[d] = (signs >> d & 1) ? -1.0f : 1.0f;
   const CubeTables& t = cube();
   int next_of[12];
   for (int& n : next_of) n = -1;
@@ -60,11 +75,8 @@ CellLoops cell_loops(const float v[8]) {
     } else {
       // Ambiguous face: the asymptotic decider of the bilinear interpolant, which both cells
       // sharing the face compute alike.
-      const double a = v[fc[0]], b = v[fc[1]], cc = v[fc[2]], d = v[fc[3]];
-      const double den = a + cc - b - d;
-      const bool saddle_inside = den != 0 && (a * cc - b * d) / den <= 0;
       // Corner q is cut off by the segment of edges q-1 and q.
-      const bool cut_inside = !saddle_inside;
+      const bool cut_inside = !(saddles >> f & 1);
       for (int q = 0; q < 4; ++q)
         if (in[q] == cut_inside) segs[ns++] = {(q + 3) % 4, q};
     }
@@ -120,6 +132,91 @@ CellLoops cell_loops(const float v[8]) {
     out.length[out.count++] = len;
   }
   return out;
+}
+
+int signs_of(const float v[8]) {
+  int s = 0;
+  for (int d = 0; d < 8; ++d) s |= (v[d] <= 0) << d;
+  return s;
+}
+
+// Faces with four crossings for each sign pattern.
+struct CaseTable {
+  std::uint8_t ambiguous[256] = {};
+  std::uint16_t index[256][64] = {};
+  std::vector<CellCase> cases;
+  CaseTable() {
+    const CubeTables& t = cube();
+    for (int signs = 0; signs < 256; ++signs)
+      for (int f = 0; f < 6; ++f) {
+        const auto& fc = t.face_corners[f];
+        int changes = 0;
+        for (int q = 0; q < 4; ++q) changes += (signs >> fc[q] & 1) != (signs >> fc[(q + 1) % 4] & 1);
+        if (changes == 4) ambiguous[signs] |= static_cast<std::uint8_t>(1u << f);
+      }
+    for (int signs = 0; signs < 256; ++signs)
+      for (int saddles = 0; saddles < 64; ++saddles) {
+        if (saddles & ~ambiguous[signs]) continue;
+        index[signs][saddles] = static_cast<std::uint16_t>(cases.size());
+        cases.push_back(build(loops_of_case(signs, saddles)));
+      }
+  }
+  static CellCase build(const CellLoops& l) {
+    const CubeTables& t = cube();
+    CellCase c;
+    c.loops = static_cast<std::uint8_t>(l.count);
+    for (int L = 0; L < l.count; ++L) {
+      const int len = l.length[L];
+      c.length[L] = static_cast<std::uint8_t>(len);
+      for (int q = 0; q < len; ++q) {
+        c.edge[L][q] = static_cast<std::uint8_t>(l.edge[L][q]);
+        const int e1 = l.edge[L][q], e2 = l.edge[L][(q + 1) % len];
+        for (int f = 0; f < 6; ++f) {
+          const auto& fc = t.face_corners[f];
+          bool has1 = false, has2 = false;
+          for (int k = 0; k < 4; ++k) {
+            const int e = t.edge_of[fc[k]][fc[(k + 1) % 4]];
+            has1 = has1 || e == e1;
+            has2 = has2 || e == e2;
+          }
+          if (has1 && has2) c.face[L][q] = static_cast<std::uint8_t>(f);
+        }
+      }
+      c.triangles[L] = static_cast<std::uint8_t>(
+          triangulate_loop(l.edge[L], len, [](int, int) { return 0.0; }, c.tri[L]));
+    }
+    return c;
+  }
+};
+
+const CaseTable& case_table() {
+  static const CaseTable table;
+  return table;
+}
+
+}  // namespace
+
+CellLoops cell_loops(const float v[8]) {
+  const CubeTables& t = cube();
+  int saddles = 0;
+  const int signs = signs_of(v);
+  const int amb = case_table().ambiguous[signs];
+  for (int f = 0; f < 6; ++f)
+    if (amb >> f & 1) saddles |= saddle_inside(t, v, f) << f;
+  return loops_of_case(signs, saddles);
+}
+
+const CellCase& cell_case(const float v[8]) {
+  const CaseTable& table = case_table();
+  const int signs = signs_of(v);
+  const int amb = table.ambiguous[signs];
+  int saddles = 0;
+  if (amb) {
+    const CubeTables& t = cube();
+    for (int f = 0; f < 6; ++f)
+      if (amb >> f & 1) saddles |= saddle_inside(t, v, f) << f;
+  }
+  return table.cases[table.index[signs][saddles]];
 }
 
 }  // namespace qjulia::detail

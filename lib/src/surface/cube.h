@@ -37,6 +37,22 @@ struct CellLoops {
 /// The loops of a cell with corner values v (inside where v <= 0).
 CellLoops cell_loops(const float v[8]);
 
+/// Everything marching cubes needs of a cell, by the signs of its corners and the decider's
+/// answers on its ambiguous faces (computed once per case): the loops, the cube face of each
+/// loop segment (from edge q to q + 1), and each loop's triangulation without a diagonal on a
+/// cube face (none: a centre vertex is needed).
+struct CellCase {
+  std::uint8_t loops = 0;
+  std::uint8_t length[4] = {};
+  std::uint8_t edge[4][12] = {};
+  std::uint8_t face[4][12] = {};
+  std::uint8_t triangles[4] = {};  ///< length - 2, or 0 for a centre vertex
+  std::uint8_t tri[4][30] = {};    ///< loop positions, three per triangle
+};
+
+/// The case of a cell with corner values v.
+const CellCase& cell_case(const float v[8]);
+
 /// Triangulates a loop of `len` (<= 12) cube edges so that no new edge joins two cube edges that
 /// share a face (the neighbour cell could make the same edge), by dynamic programming over
 /// sub-polygons; `weight(i, j)` is the cost of the diagonal between loop positions i and j (the
