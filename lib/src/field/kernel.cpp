@@ -90,10 +90,22 @@ HWY_INLINE Q sqr(const Q& a) {
       hn::NegMulAdd(a.z, a.z, hn::NegMulAdd(a.y, a.y, hn::NegMulAdd(a.x, a.x, hn::Mul(a.w, a.w)))),
       hn::Mul(t, a.x), hn::Mul(t, a.y), hn::Mul(t, a.z)};
 }
+HWY_INLINE V reciprocal(V x);
+
+// 1 / n for a squared norm n: the fast reciprocal where n is a normal number, a division
+// elsewhere (0, subnormal, inf), so poles and overflow come out as in the scalar path.
+HWY_INLINE V reciprocal_of_norm(V n) {
+  const D d;
+  const V r = reciprocal(n);
+  const auto normal = hn::And(hn::Ge(n, hn::Set(d, std::numeric_limits<double>::min())),
+                              hn::Le(n, hn::Set(d, std::numeric_limits<double>::max())));
+  if (HWY_LIKELY(hn::AllTrue(d, normal))) return r;
+  return hn::IfThenElse(normal, r, hn::Div(hn::Set(d, 1.0), n));
+}
+
 // conj(a) / |a|^2; a zero quaternion gives non-finite components, as in the scalar path.
 HWY_INLINE Q inv(const Q& a) {
-  const D d;
-  const V r = hn::Div(hn::Set(d, 1.0), norm2(a));
+  const V r = reciprocal_of_norm(norm2(a));
   return {hn::Mul(a.w, r), hn::Neg(hn::Mul(a.x, r)), hn::Neg(hn::Mul(a.y, r)),
           hn::Neg(hn::Mul(a.z, r))};
 }
@@ -1084,7 +1096,17 @@ class Machine {
 
   // dst = f(o), followed by the fused addition of the operation.
   template <class F>
-  HWY_INLINE void with_add(const KernelOp& op, const F& f) {
+  HWY_INLINE void with_add(const KernelOp& op, const F& product) {
+    if (op.scale != 1) {
+      const V sc = hn::Set(D(), op.scale);
+      with_add_of(op, [&](std::size_t o) { return scale(sc, product(o)); });
+    } else {
+      with_add_of(op, product);
+    }
+  }
+
+  template <class F>
+  HWY_INLINE void with_add_of(const KernelOp& op, const F& f) {
     const Slot dst = slot_[op.dst];
     switch (op.add) {
       case 1: {
@@ -1252,14 +1274,31 @@ void prepare_kernel(KernelSetup& s) {
     }
     ops.push_back(op);
   }
-  // Fuse an addition into the square or product before it when that product is not read
-  // again: h^2 + c, p*h^2 + q, 2*h^3 + 1.
+  // Fuse a real factor and an addition into the square or product before them when that
+  // product is not read again: h^2 + c, p*h^2 + q, 2*h^3 + 1, 3*h^2.
   std::vector<KernelOp> fused;
   for (std::size_t i = 0; i < ops.size(); ++i) {
     KernelOp op = ops[i];
     const bool product = op.code == OpCode::kSqr || op.code == OpCode::kMul ||
                          op.code == OpCode::kMulLit || op.code == OpCode::kLitMul ||
                          op.code == OpCode::kScale;
+    if (product && i + 1 < ops.size()) {
+      const KernelOp& next = ops[i + 1];
+      const int t = op.dst;
+      const bool dead = next.dst == t || dead_after(ops, i + 2, t, s.result);
+      if (dead && next.a == t &&
+          (next.code == OpCode::kScale || next.code == OpCode::kScaleAddReal)) {
+        op.scale = next.lit.w;
+        if (next.code == OpCode::kScaleAddReal) {
+          op.add = 3;
+          op.add_lit = Quat(next.lit.x);
+        }
+        op.dst = next.dst;
+        ++i;
+        fused.push_back(op);
+        continue;
+      }
+    }
     if (product && op.add == 0 && i + 1 < ops.size()) {
       const KernelOp& next = ops[i + 1];
       const int t = op.dst;

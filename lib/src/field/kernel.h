@@ -27,6 +27,8 @@ struct KernelOp {
   std::uint8_t add = 0;
   std::uint8_t add_reg = 0;
   Quat add_lit;
+  /// A fused real factor applied after the operation, before the addition (1: none).
+  double scale = 1;
 };
 
 /// Everything the vector kernel needs, as plain data (built once per Classifier).
