@@ -408,55 +408,87 @@ struct BrickSampler::Impl {
 
   // The closure: a crossing cell whose face has a sign change continues into the cell across
   // that face, which is then examined too (in this brick, or by a request to the neighbour).
-  void close(Brick& br, const Around& a, std::vector<std::uint16_t> frontier, Batch& b,
+  // Done with bit sets over the 9^3 points (a cell is named by its lower corner), a whole
+  // frontier at a time.
+  void close(Brick& br, const Around& a, const std::vector<std::uint16_t>& cells, Batch& b,
              Outbox& out) {
-    std::vector<std::uint16_t> next;
-    while (!frontier.empty()) {
-      // Corners of the cells not yet visited.
-      std::size_t keep = 0;
-      for (std::uint16_t c : frontier)
-        if (!br.visited.test(c)) {
-          br.visited.set(c);
-          frontier[keep++] = c;
-        }
-      frontier.resize(keep);
+    using Pts = Bits<kBrickPoints>;
+    const int base[3] = {br.at.x * kBrick, br.at.y * kBrick, br.at.z * kBrick};
+    // Cells that exist: local 0..7, globally -1 .. points - 1.
+    int lo[3], hi[3];
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::max(0, -1 - base[k]);
+      hi[k] = std::min(kBrick - 1, geo.points[k] - 1 - base[k]);
+    }
+    Pts valid, frontier, visited, surface, sign;
+    for (int i = lo[0]; i <= hi[0]; ++i)
+      for (int j = lo[1]; j <= hi[1]; ++j)
+        for (int k = lo[2]; k <= hi[2]; ++k) valid.set(point_index(i, j, k));
+    auto to_point = [](int c) { return point_index(c / 64, (c / 8) % 8, c % 8); };
+    for (int c = 0; c < kBrickCells; ++c) {
+      if (br.visited.test(c)) visited.set(to_point(c));
+      if (br.surface.test(c)) surface.set(to_point(c));
+    }
+    for (std::uint16_t c : cells) frontier.set(to_point(c));
+    for (int w = 0; w < Pts::kWords; ++w)
+      for (std::uint64_t bits = br.known.w[w]; bits; bits &= bits - 1) {
+        const int p = w * 64 + __builtin_ctzll(bits);
+        if (br.get(p) <= 0) sign.set(p);
+      }
+    constexpr int kStride[3] = {81, 9, 1};
+    static const int kCorner[8] = {0, 81, 9, 90, 1, 82, 10, 91};
+    std::vector<int> queued;
+    for (;;) {
+      frontier = frontier & valid & ~visited;
+      if (!frontier.any()) break;
+      visited = visited | frontier;
+      // The corners of the frontier's cells.
+      Pts corners;
+      for (int d = 0; d < 8; ++d) corners = corners | shifted(frontier, -kCorner[d]);
+      corners = corners & ~br.known;
+      queued.clear();
       need(br, a, b, [&](auto&& at) {
-        for (std::uint16_t c : frontier) {
-          const int i = c / 64, j = (c / 8) % 8, k = c % 8;
-          for (int d = 0; d < 8; ++d) at(i + (d & 1), j + ((d >> 1) & 1), k + (d >> 2));
-        }
+        for (int w = 0; w < Pts::kWords; ++w)
+          for (std::uint64_t bits = corners.w[w]; bits; bits &= bits - 1) {
+            const int p = w * 64 + __builtin_ctzll(bits);
+            queued.push_back(p);
+            at(p / 81, (p / 9) % 9, p % 9);
+          }
       });
       run(b);
-      next.clear();
-      for (std::uint16_t c : frontier) {
-        const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
-        // Cells below -1 or beyond the last point hold nothing.
-        const int g[3] = {br.at.x * kBrick + ci[0], br.at.y * kBrick + ci[1],
-                          br.at.z * kBrick + ci[2]};
-        if (g[0] < -1 || g[1] < -1 || g[2] < -1 || g[0] >= geo.points[0] || g[1] >= geo.points[1] ||
-            g[2] >= geo.points[2])
-          continue;
-        bool in[8];
-        int inside = 0;
-        for (int d = 0; d < 8; ++d)
-          inside += in[d] =
-              br.get(point_index(ci[0] + (d & 1), ci[1] + ((d >> 1) & 1), ci[2] + (d >> 2))) <= 0;
-        if (inside == 0 || inside == 8) continue;
-        br.surface.set(c);
-        for (int axis = 0; axis < 3; ++axis)
-          for (int t = 0; t < 2; ++t) {
-            int face_inside = 0;
-            for (int d = 0; d < 8; ++d)
-              if (((d >> axis) & 1) == t) face_inside += in[d];
-            if (face_inside == 0 || face_inside == 4) continue;
-            int n[3] = {ci[0], ci[1], ci[2]};
-            n[axis] += t ? 1 : -1;
-            const int gn = g[axis] + (t ? 1 : -1);
-            if (gn < -1 || gn >= geo.points[axis]) continue;
-            if (n[axis] >= 0 && n[axis] < kBrick) {
-              const std::uint16_t nc = static_cast<std::uint16_t>(cell_index(n[0], n[1], n[2]));
-              if (!br.visited.test(nc)) next.push_back(nc);
-            } else {
+      for (int p : queued)
+        if (br.get(p) <= 0) sign.set(p);
+      // Crossing cells: corners of both signs.
+      Pts any_in, all_in = frontier;
+      Pts corner_sign[8];
+      for (int d = 0; d < 8; ++d) {
+        corner_sign[d] = shifted(sign, kCorner[d]);
+        any_in = any_in | corner_sign[d];
+        all_in = all_in & corner_sign[d];
+      }
+      const Pts crossing = frontier & any_in & ~all_in;
+      surface = surface | crossing;
+      // Across faces with a sign change: the next frontier, or requests to the neighbours.
+      Pts next;
+      for (int axis = 0; axis < 3; ++axis)
+        for (int t = 0; t < 2; ++t) {
+          Pts f_any, f_all = crossing;
+          for (int d = 0; d < 8; ++d) {
+            if (((d >> axis) & 1) != t) continue;
+            f_any = f_any | corner_sign[d];
+            f_all = f_all & corner_sign[d];
+          }
+          const Pts go = crossing & f_any & ~f_all;
+          if (!go.any()) continue;
+          next = next | shifted(go, t ? -kStride[axis] : kStride[axis]);
+          // Cells on the brick's face go to the neighbour.
+          for (int w = 0; w < Pts::kWords; ++w)
+            for (std::uint64_t bits = go.w[w]; bits; bits &= bits - 1) {
+              const int p = w * 64 + __builtin_ctzll(bits);
+              int n[3] = {p / 81, (p / 9) % 9, p % 9};
+              if (n[axis] != (t ? kBrick - 1 : 0)) continue;
+              const int gn = base[axis] + n[axis] + (t ? 1 : -1);
+              if (gn < -1 || gn >= geo.points[axis]) continue;
               int nb[3] = {br.at.x, br.at.y, br.at.z};
               nb[axis] += t ? 1 : -1;
               n[axis] = t ? 0 : kBrick - 1;
@@ -469,11 +501,22 @@ struct BrickSampler::Impl {
               r.cell = nc;
               deliver(a, br, r, out);
             }
-          }
+        }
+      frontier = next;
+    }
+    // Back to cell numbering.
+    for (int w = 0; w < Pts::kWords; ++w) {
+      for (std::uint64_t bits = visited.w[w]; bits; bits &= bits - 1) {
+        const int p = w * 64 + __builtin_ctzll(bits);
+        br.visited.set(cell_index(p / 81, (p / 9) % 9, p % 9));
       }
-      frontier.swap(next);
+      for (std::uint64_t bits = surface.w[w]; bits; bits &= bits - 1) {
+        const int p = w * 64 + __builtin_ctzll(bits);
+        br.surface.set(cell_index(p / 81, (p / 9) % 9, p % 9));
+      }
     }
   }
+
 };
 
 BrickSampler::BrickSampler(const Solid& solid, const GridGeometry& geo, const SampleOptions& opts)

@@ -44,7 +44,8 @@ inline int cell_index(int i, int j, int k) { return (i * kBrick + j) * kBrick + 
 /// A fixed-size bit set.
 template <int N>
 struct Bits {
-  std::uint64_t w[(N + 63) / 64] = {};
+  static constexpr int kWords = (N + 63) / 64;
+  std::uint64_t w[kWords] = {};
   bool test(int i) const { return (w[i >> 6] >> (i & 63)) & 1u; }
   void set(int i) { w[i >> 6] |= std::uint64_t{1} << (i & 63); }
   bool any() const {
@@ -57,7 +58,47 @@ struct Bits {
     for (std::uint64_t x : w) n += static_cast<std::size_t>(__builtin_popcountll(x));
     return n;
   }
+  friend Bits operator&(const Bits& a, const Bits& b) {
+    Bits r;
+    for (int i = 0; i < kWords; ++i) r.w[i] = a.w[i] & b.w[i];
+    return r;
+  }
+  friend Bits operator|(const Bits& a, const Bits& b) {
+    Bits r;
+    for (int i = 0; i < kWords; ++i) r.w[i] = a.w[i] | b.w[i];
+    return r;
+  }
+  friend Bits operator~(const Bits& a) {
+    Bits r;
+    for (int i = 0; i < kWords; ++i) r.w[i] = ~a.w[i];
+    if (N % 64) r.w[kWords - 1] &= (std::uint64_t{1} << (N % 64)) - 1;
+    return r;
+  }
 };
+
+/// r[p] = b[p + k] where 0 <= p + k < N, else 0.
+template <int N>
+Bits<N> shifted(const Bits<N>& b, int k) {
+  Bits<N> r;
+  constexpr int W = Bits<N>::kWords;
+  if (k >= 0) {
+    const int ws = k / 64, bs = k % 64;
+    for (int i = 0; i + ws < W; ++i) {
+      std::uint64_t v = b.w[i + ws] >> bs;
+      if (bs && i + ws + 1 < W) v |= b.w[i + ws + 1] << (64 - bs);
+      r.w[i] = v;
+    }
+  } else {
+    const int m = -k, ws = m / 64, bs = m % 64;
+    for (int i = W - 1; i >= ws; --i) {
+      std::uint64_t v = b.w[i - ws] << bs;
+      if (bs && i - ws - 1 >= 0) v |= b.w[i - ws - 1] >> (64 - bs);
+      r.w[i] = v;
+    }
+    if (N % 64) r.w[W - 1] &= (std::uint64_t{1} << (N % 64)) - 1;
+  }
+  return r;
+}
 
 /// One brick of the sampled grid.
 struct Brick {
