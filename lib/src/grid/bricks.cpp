@@ -181,12 +181,7 @@ struct BrickSampler::Impl {
   Around around(const Brick& br) const {
     Around a;
     if (!map) return a;
-    for (int dx = -1; dx <= 1; ++dx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dz = -1; dz <= 1; ++dz)
-          if (dx || dy || dz)
-            a.n[(dx + 1) * 9 + (dy + 1) * 3 + (dz + 1)] =
-                find(brick_key(br.at.x + dx, br.at.y + dy, br.at.z + dz));
+    std::copy(std::begin(br.around), std::end(br.around), a.n);
     return a;
   }
 
@@ -530,12 +525,22 @@ BrickList BrickSampler::run() {
     if (opts_.progress && !opts_.progress(std::min(1.0, f))) throw Cancelled();
   };
   std::unordered_map<std::uint64_t, std::unique_ptr<Brick>> bricks;
+  // A brick by key, created when new and linked with its neighbours both ways.
   auto get = [&](std::uint64_t key) -> Brick& {
     auto& slot = bricks[key];
     if (!slot) {
       slot = std::make_unique<Brick>();
-      slot->key = key;
-      slot->at = brick_of_key(key);
+      Brick& b = *slot;
+      b.key = key;
+      b.at = brick_of_key(key);
+      for (int o = 0; o < 27; ++o) {
+        if (o == 13) continue;
+        const int dx = o / 9 - 1, dy = (o / 3) % 3 - 1, dz = o % 3 - 1;
+        const auto it = bricks.find(brick_key(b.at.x + dx, b.at.y + dy, b.at.z + dz));
+        if (it == bricks.end() || !it->second) continue;
+        b.around[o] = it->second.get();
+        it->second->around[26 - o] = &b;
+      }
     }
     return *slot;
   };

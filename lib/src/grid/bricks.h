@@ -119,6 +119,8 @@ struct Brick {
   std::atomic<std::uint8_t> inbox4{0};
   std::atomic<std::uint64_t> inbox_cells[kBrickCells / 64] = {};
   std::atomic<bool> scheduled{false};  ///< in a class's list for a visit
+  /// The 26 neighbours (index (dx + 1) * 9 + (dy + 1) * 3 + dz + 1), null where none exists.
+  Brick* around[27] = {};
 
   /// F at known point p (the virtual value outside the grid or a clip).
   float get(int p) const {
