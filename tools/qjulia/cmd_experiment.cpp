@@ -17,10 +17,14 @@
 #include "cli.h"
 #include "commands.h"
 #include "files.h"
-#include "qjulia/mesh/compare.h"
 #include "qjulia/base/error.h"
+#include "qjulia/mesh/compare.h"
 #include "qjulia/pipeline/pipeline.h"
+#include "qjulia/render/contact_sheet.h"
+#include "qjulia/render/image.h"
+#include "qjulia/render/plot.h"
 #include "qjulia/render/render.h"
+#include "qjulia/render/text.h"
 
 namespace qjulia::cli {
 
@@ -57,113 +61,6 @@ std::string fmt(double x, const char* f = "%.4g") {
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-}
-
-// ---------------------------------------------------------------------------------------------
-// A little raster drawing for contact-sheet labels and the plot: no plotting library needed.
-
-using Rgb = std::array<std::uint8_t, 3>;
-
-Image blank(int w, int h, Rgb background) {
-  Image im;
-  im.width = w;
-  im.height = h;
-  im.rgb.resize(static_cast<std::size_t>(w) * h * 3);
-  for (std::size_t i = 0; i < im.rgb.size(); i += 3)
-    for (int k = 0; k < 3; ++k) im.rgb[i + k] = background[k];
-  return im;
-}
-
-void put(Image& im, int x, int y, Rgb c) {
-  if (x < 0 || y < 0 || x >= im.width || y >= im.height) return;
-  const std::size_t i = (static_cast<std::size_t>(y) * im.width + x) * 3;
-  for (int k = 0; k < 3; ++k) im.rgb[i + k] = c[k];
-}
-
-void fill_rect(Image& im, int x0, int y0, int x1, int y1, Rgb c) {
-  for (int y = y0; y < y1; ++y)
-    for (int x = x0; x < x1; ++x) put(im, x, y, c);
-}
-
-// A line `width` pixels wide (DDA); every `dash`-th run of 6 pixels is skipped when dash > 0.
-void line(Image& im, double x0, double y0, double x1, double y1, Rgb c, int width = 2,
-          bool dashed = false) {
-  const int steps =
-      std::max(1, static_cast<int>(std::ceil(std::max(std::abs(x1 - x0), std::abs(y1 - y0)))));
-  for (int s = 0; s <= steps; ++s) {
-    if (dashed && (s / 6) % 2) continue;
-    const double t = static_cast<double>(s) / steps;
-    const int x = static_cast<int>(std::lround(x0 + t * (x1 - x0)));
-    const int y = static_cast<int>(std::lround(y0 + t * (y1 - y0)));
-    for (int dy = 0; dy < width; ++dy)
-      for (int dx = 0; dx < width; ++dx) put(im, x + dx - width / 2, y + dy - width / 2, c);
-  }
-}
-
-// A 3x5 pixel font: five rows of three bits (4 = left column) per character.
-const std::uint8_t* glyph(char ch) {
-  static const std::uint8_t kDigits[10][5] = {
-      {7, 5, 5, 5, 7}, {2, 6, 2, 2, 7}, {7, 1, 7, 4, 7}, {7, 1, 7, 1, 7}, {5, 5, 7, 1, 1},
-      {7, 4, 7, 1, 7}, {7, 4, 7, 5, 7}, {7, 1, 2, 2, 2}, {7, 5, 7, 5, 7}, {7, 5, 7, 1, 7}};
-  static const std::uint8_t kLetters[26][5] = {
-      {2, 5, 7, 5, 5}, {6, 5, 6, 5, 6}, {3, 4, 4, 4, 3}, {6, 5, 5, 5, 6}, {7, 4, 6, 4, 7},
-      {7, 4, 6, 4, 4}, {3, 4, 5, 5, 3}, {5, 5, 7, 5, 5}, {7, 2, 2, 2, 7}, {1, 1, 1, 5, 2},
-      {5, 5, 6, 5, 5}, {4, 4, 4, 4, 7}, {5, 7, 5, 5, 5}, {5, 7, 7, 5, 5}, {2, 5, 5, 5, 2},
-      {6, 5, 6, 4, 4}, {2, 5, 5, 6, 3}, {6, 5, 6, 5, 5}, {3, 4, 2, 1, 6}, {7, 2, 2, 2, 2},
-      {5, 5, 5, 5, 7}, {5, 5, 5, 5, 2}, {5, 5, 7, 7, 5}, {5, 5, 2, 5, 5}, {5, 5, 2, 2, 2},
-      {7, 1, 2, 4, 7}};
-  static const std::uint8_t kDot[5] = {0, 0, 0, 0, 2}, kMinus[5] = {0, 0, 7, 0, 0},
-                            kEq[5] = {0, 7, 0, 7, 0}, kSlash[5] = {1, 1, 2, 4, 4},
-                            kOpen[5] = {2, 4, 4, 4, 2}, kClose[5] = {2, 1, 1, 1, 2},
-                            kGt[5] = {4, 2, 1, 2, 4}, kComma[5] = {0, 0, 0, 2, 4},
-                            kColon[5] = {0, 2, 0, 2, 0}, kBlank[5] = {0, 0, 0, 0, 0};
-  if (ch >= '0' && ch <= '9') return kDigits[ch - '0'];
-  if (ch >= 'a' && ch <= 'z') ch = static_cast<char>(ch - 'a' + 'A');
-  if (ch >= 'A' && ch <= 'Z') return kLetters[ch - 'A'];
-  switch (ch) {
-    case '.':
-      return kDot;
-    case '-':
-      return kMinus;
-    case '=':
-      return kEq;
-    case '/':
-      return kSlash;
-    case '(':
-      return kOpen;
-    case ')':
-      return kClose;
-    case '>':
-      return kGt;
-    case ',':
-      return kComma;
-    case ':':
-      return kColon;
-    default:
-      return kBlank;
-  }
-}
-
-int text_width(const std::string& s, int scale) { return static_cast<int>(s.size()) * 4 * scale; }
-
-void text(Image& im, int x, int y, const std::string& s, Rgb c, int scale = 2) {
-  for (char ch : s) {
-    const std::uint8_t* g = glyph(ch);
-    for (int row = 0; row < 5; ++row)
-      for (int col = 0; col < 3; ++col)
-        if (g[row] & (4 >> col))
-          fill_rect(im, x + col * scale, y + row * scale, x + (col + 1) * scale,
-                    y + (row + 1) * scale, c);
-    x += 4 * scale;
-  }
-}
-
-void blit(Image& dst, const Image& src, int x0, int y0) {
-  for (int y = 0; y < src.height; ++y)
-    for (int x = 0; x < src.width; ++x) {
-      const std::size_t i = (static_cast<std::size_t>(y) * src.width + x) * 3;
-      put(dst, x0 + x, y0 + y, {src.rgb[i], src.rgb[i + 1], src.rgb[i + 2]});
-    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -305,30 +202,31 @@ int run_table1(const Options& o) {
   grid("Components (cut-off: " + std::to_string(cut.measure.components.size()) + ")",
        [](const Cell& c) { return std::to_string(c.run.measure.components.size()); });
 
-  // The contact sheet: the 3 x 4 escape grid and the cut-off surface below, as in the paper.
+  // The contact sheet: the 3 x 4 escape grid and the cut-off surface centred below, as in the
+  // paper. Each picture is framed on its own surface.
   std::string sheet_note;
-  const int tile = 220, label = 22, cols = 4, rows = 3;
   const std::string png = o.out + "/table1.png";
   try {
     RenderOptions ro;
-    ro.width = ro.height = tile;
+    ro.width = ro.height = 220;
     ro.rotate_deg = {-20, 25, 0};
-    Image sheet = blank(cols * tile, (rows + 1) * (tile + label), {255, 255, 255});
-    auto draw = [&](const Run& run, const std::string& caption, int x, int y) {
-      if (!run.mesh.triangles.empty())
-        blit(sheet, render(run.mesh, ro), x, y + label);
-      else
-        text(sheet, x + tile / 2 - text_width("EMPTY", 2) / 2, y + label + tile / 2, "EMPTY",
-             {120, 120, 120});
-      text(sheet, x + tile / 2 - text_width(caption, 2) / 2, y + 5, caption, {0, 0, 0});
+    auto picture = [&](const Run& run, const std::string& caption) {
+      if (!run.mesh.triangles.empty()) return std::make_pair(render(run.mesh, ro), caption);
+      Image empty = make_image(ro.width, ro.height, ro.background);
+      const std::string text = "empty";
+      draw_text(empty, (ro.width - text_width(text, 2)) / 2, (ro.height - text_height(2)) / 2, text,
+                {120, 120, 120}, 2);
+      return std::make_pair(std::move(empty), caption);
     };
-    for (std::size_t i = 0; i < cells.size(); ++i)
-      draw(cells[i].run,
-           "ESCAPE R=" + fmt(cells[i].bailout) + " N=" + std::to_string(cells[i].iterations),
-           static_cast<int>(i % cols) * tile, static_cast<int>(i / cols) * (tile + label));
-    draw(cut, "CUT-OFF N=" + std::to_string(base.iterations) + " R=" + fmt(base.bailout),
-         (cols * tile - tile) / 2, rows * (tile + label));
-    write_png(png, sheet);
+    std::vector<std::pair<Image, std::string>> pictures;
+    for (const auto& c : cells)
+      pictures.push_back(
+          picture(c.run, "escape R=" + fmt(c.bailout) + " N=" + std::to_string(c.iterations)));
+    pictures.push_back(
+        picture(cut, "cut-off N=" + std::to_string(base.iterations) + " R=" + fmt(base.bailout)));
+    ContactSheetOptions sheet;
+    sheet.center_last_row = true;
+    write_png(png, contact_sheet(pictures, static_cast<int>(bailouts.size()), sheet));
     sheet_note =
         "Contact sheet: table1.png (rows: 5, 12, 24 iterations; columns: bailout 0.8, "
         "1, 2, 4; bottom: the cut-off method). Each picture is framed on its own "
@@ -385,74 +283,6 @@ TriMesh inner_part(const TriMesh& m, const Params& p) {
     out.triangles.push_back(f);
   }
   return out;
-}
-
-Image plot(const std::vector<int>& xs, const std::vector<std::vector<double>>& series,
-           const std::vector<Rgb>& colors, const std::vector<std::string>& names, double reference,
-           const std::string& title) {
-  const int w = 900, h = 560, left = 90, right = 30, top = 50, bottom = 70;
-  Image im = blank(w, h, {255, 255, 255});
-  // y on a log10 scale, whole decades: the distances fall over several of them.
-  double ymin = reference, ymax = reference;
-  for (const auto& ser : series)
-    for (double y : ser)
-      if (std::isfinite(y) && y > 0) {
-        ymin = std::min(ymin, y);
-        ymax = std::max(ymax, y);
-      }
-  const int d0 = static_cast<int>(std::floor(std::log10(ymin))),
-            d1 = std::max(d0 + 1, static_cast<int>(std::ceil(std::log10(ymax))));
-  // x on a log2 scale: the iteration counts roughly double.
-  const double lx0 = std::log2(std::max(1, xs.front())), lx1 = std::log2(std::max(2, xs.back()));
-  auto px = [&](double x) {
-    return left + (std::log2(x) - lx0) / std::max(1e-9, lx1 - lx0) * (w - left - right);
-  };
-  auto py = [&](double y) {
-    const double t = (std::log10(std::max(y, std::pow(10.0, d0))) - d0) / (d1 - d0);
-    return h - bottom - t * (h - top - bottom);
-  };
-  // Axes, grid and ticks.
-  const Rgb axis{0, 0, 0}, grid_rgb{225, 225, 225};
-  for (int d = d0; d <= d1; ++d) {
-    const double y = std::pow(10.0, d);
-    line(im, left, py(y), w - right, py(y), grid_rgb, 1);
-    const std::string label = fmt(y, "%g");
-    text(im, left - 8 - text_width(label, 2), static_cast<int>(py(y)) - 5, label, axis);
-  }
-  for (int x : xs) {
-    line(im, px(x), h - bottom, px(x), top, grid_rgb, 1);
-    const std::string label = std::to_string(x);
-    text(im, static_cast<int>(px(x)) - text_width(label, 2) / 2, h - bottom + 10, label, axis);
-  }
-  line(im, left, h - bottom, w - right, h - bottom, axis, 2);
-  line(im, left, h - bottom, left, top, axis, 2);
-  text(im, (w - text_width("ITERATIONS N", 2)) / 2, h - 28, "ITERATIONS N", axis);
-  text(im, (w - text_width(title, 3)) / 2, 15, title, axis, 3);
-  // The voxel size, dashed: below it the distance is resolution-limited.
-  line(im, left, py(reference), w - right, py(reference), {130, 130, 130}, 2, true);
-  // The legend, top right.
-  for (std::size_t s = 0; s <= series.size(); ++s) {
-    const int y = top + 12 + static_cast<int>(s) * 22;
-    const int x = w - right - 300;
-    if (s < series.size()) {
-      fill_rect(im, x, y - 2, x + 28, y + 3, colors[s]);
-      text(im, x + 40, y - 5, names[s], axis);
-    } else {
-      line(im, x, y, x + 28, y, {130, 130, 130}, 2, true);
-      text(im, x + 40, y - 5, "ONE VOXEL", axis);
-    }
-  }
-  for (std::size_t s = 0; s < series.size(); ++s) {
-    for (std::size_t i = 0; i + 1 < xs.size(); ++i)
-      if (std::isfinite(series[s][i]) && std::isfinite(series[s][i + 1]))
-        line(im, px(xs[i]), py(series[s][i]), px(xs[i + 1]), py(series[s][i + 1]), colors[s], 3);
-    for (std::size_t i = 0; i < xs.size(); ++i)
-      if (std::isfinite(series[s][i]))
-        fill_rect(im, static_cast<int>(px(xs[i])) - 4, static_cast<int>(py(series[s][i])) - 4,
-                  static_cast<int>(px(xs[i])) + 5, static_cast<int>(py(series[s][i])) + 5,
-                  colors[s]);
-  }
-  return im;
 }
 
 int run_cardioid(const Options& o) {
@@ -529,10 +359,16 @@ int run_cardioid(const Options& o) {
   std::string plot_note;
   const std::string png = o.out + "/cardioid.png";
   try {
-    const Image im = plot(iterations, {hausdorff, mean_ec, mean_ce},
-                          {{210, 30, 30}, {30, 80, 210}, {20, 150, 60}},
-                          {"HAUSDORFF", "MEAN ESCAPE > CUT-OFF", "MEAN CUT-OFF > ESCAPE"}, voxel,
-                          "ESCAPE VS CUT-OFF: DISTANCE");
+    PlotOptions po;
+    po.title = "Escape vs cut-off: distance";
+    po.x_label = "iterations N";
+    po.reference = voxel;
+    po.reference_label = "one voxel";
+    const Image im = log_plot(std::vector<double>(iterations.begin(), iterations.end()),
+                              {{"Hausdorff", {210, 30, 30}, hausdorff},
+                               {"mean escape -> cut-off", {30, 80, 210}, mean_ec},
+                               {"mean cut-off -> escape", {20, 150, 60}, mean_ce}},
+                              po);
     write_png(png, im);
     plot_note =
         "\nPlot: cardioid.png (log-log; x: iterations; y: distance; red: Hausdorff distance; blue: "

@@ -17,7 +17,9 @@
 #include "commands.h"
 #include "qjulia/base/error.h"
 #include "qjulia/io/mesh_io.h"
+#include "qjulia/render/contact_sheet.h"
 #include "qjulia/render/render.h"
+#include "qjulia/render/text.h"
 #include "render_args.h"
 
 namespace qjulia::cli {
