@@ -43,11 +43,13 @@ experiments:
              DIR/cardioid.png.
 
 options:
-  --resolution N    voxels along the longest side of the box (default 96)
+  --resolution N    voxels along the longest side of the box, 8..1024 (default 96)
   --out DIR         output directory (default: the current directory)
-  --samples N       random surface samples per surface for the distances (default 200000)
-  --iterations LIST cardioid only: the iteration counts, comma-separated
+  --samples N       random surface samples per surface for the distances, 0..100000000
+                    (default 200000)
+  --iterations LIST cardioid only: the iteration counts, comma-separated, each 1..10000
                     (default 4,5,6,7,8,10,12,16,24,32)
+  --threads T       worker threads, 1..1024 (default: all cores)
 )";
 
 // ---------------------------------------------------------------------------------------------
@@ -71,6 +73,7 @@ struct Options {
   std::string out = ".";
   std::size_t samples = 200000;
   std::vector<int> iterations;  // cardioid
+  const CancelToken* cancel = nullptr;
 };
 
 struct Run {
@@ -79,9 +82,11 @@ struct Run {
   double seconds = 0;
 };
 
-Run mesh_of(const Params& p) {
+Run mesh_of(const Params& p, const Options& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  PipelineResult r = run_pipeline(p);
+  PipelineOptions popts;
+  popts.cancel = o.cancel;
+  PipelineResult r = run_pipeline(p, popts);
   Run run;
   run.seconds = seconds_since(t0);
   run.mesh = std::move(r.mesh);
@@ -90,11 +95,12 @@ Run mesh_of(const Params& p) {
 }
 
 // Distances between two runs, or nothing when either is empty.
-std::optional<CompareResult> distances(const TriMesh& a, const TriMesh& b, std::size_t samples) {
+std::optional<CompareResult> distances(const TriMesh& a, const TriMesh& b, const Options& o) {
   if (a.triangles.empty() || b.triangles.empty()) return std::nullopt;
-  CompareOptions o;
-  o.samples = samples;
-  CompareResult r = compare(a, b, o);
+  CompareOptions copts;
+  copts.samples = o.samples;
+  copts.cancel = o.cancel;
+  CompareResult r = compare(a, b, copts);
   r.a_vertex_distance.clear();
   return r;
 }
@@ -124,7 +130,7 @@ int run_table1(const Options& o) {
 
   std::fprintf(stderr, "table1: cut-off reference (preset newton-cubic, resolution %d)\n",
                o.resolution);
-  const Run cut = mesh_of(base);
+  const Run cut = mesh_of(base, o);
   if (cut.mesh.triangles.empty())
     throw std::runtime_error("table1: the cut-off reference surface is empty");
 
@@ -141,8 +147,8 @@ int run_table1(const Options& o) {
       p.method = Method::kEscape;
       p.bailout = r;
       p.iterations = n;
-      Cell c{r, n, mesh_of(p), std::nullopt};
-      c.d = distances(c.run.mesh, cut.mesh, o.samples);
+      Cell c{r, n, mesh_of(p, o), std::nullopt};
+      c.d = distances(c.run.mesh, cut.mesh, o);
       std::fprintf(stderr,
                    "table1: escape R=%g N=%d: %zu faces, volume %.4g, hausdorff %s (%.1f s)\n", r,
                    n, c.run.measure.faces, c.run.measure.volume,
@@ -312,10 +318,10 @@ int run_cardioid(const Options& o) {
   std::vector<Row> rows;
   for (int n : iterations) {
     escape.iterations = cutoff.iterations = n;
-    const Run e = mesh_of(escape);
-    Run c = mesh_of(cutoff);
+    const Run e = mesh_of(escape, o);
+    Run c = mesh_of(cutoff, o);
     const TriMesh inner = inner_part(c.mesh, base);
-    Row row{n, e.measure, measure(inner), distances(e.mesh, inner, o.samples)};
+    Row row{n, e.measure, measure(inner), distances(e.mesh, inner, o)};
     std::fprintf(stderr,
                  "cardioid: N=%d: escape %zu faces volume %.4g; cut-off inner %zu faces volume "
                  "%.4g; hausdorff %s (%.1f s)\n",
@@ -389,12 +395,9 @@ int run_cardioid(const Options& o) {
 
 }  // namespace
 
-int cmd_experiment(const Tokens& tokens) {
-  const std::vector<OptionSpec> specs = {{"resolution", true},
-                                         {"out", true},
-                                         {"samples", true},
-                                         {"iterations", true},
-                                         {"help", false}};
+int cmd_experiment(const Tokens& tokens, const CancelToken& cancel) {
+  const std::vector<OptionSpec> specs = {{"resolution", true}, {"out", true},     {"samples", true},
+                                         {"iterations", true}, {"threads", true}, {"help", false}};
   const ParsedArgs args = parse_args(tokens, specs, "experiment");
   if (args.has("help")) {
     std::fputs(kHelp, stdout);
@@ -406,20 +409,16 @@ int cmd_experiment(const Tokens& tokens) {
         "experiment --help')");
   const std::string name = args.positional[0];
   Options o;
-  if (auto r = args.get("resolution")) {
-    const long long n = parse_int(*r, "--resolution");
-    if (n < 8 || n > 1024) throw InvalidInput("--resolution must be in 8..1024");
-    o.resolution = static_cast<int>(n);
-  }
-  if (auto s = args.get("samples")) {
-    const long long n = parse_int(*s, "--samples");
-    if (n < 0 || n > 100000000) throw InvalidInput("--samples must be in 0..100000000");
-    o.samples = static_cast<std::size_t>(n);
-  }
+  o.cancel = &cancel;
+  if (auto r = args.get("resolution"))
+    o.resolution = static_cast<int>(parse_int(*r, "--resolution", {8, 1024}));
+  if (auto s = args.get("samples"))
+    o.samples = static_cast<std::size_t>(parse_int(*s, "--samples", kSamplesRange));
+  const ThreadLimit threads(args);
   if (auto it = args.get("iterations")) {
     if (name != "cardioid") throw InvalidInput("--iterations is an option of 'cardioid' only");
-    for (double x : parse_doubles(*it, 0, "--iterations")) {
-      if (x < 1 || x > 10000 || x != std::floor(x))
+    for (double x : parse_doubles(*it, 0, "--iterations", {1, 10000})) {
+      if (x != std::floor(x))
         throw InvalidInput("--iterations takes whole numbers in 1..10000, got " + fmt(x));
       o.iterations.push_back(static_cast<int>(x));
     }

@@ -26,9 +26,6 @@ using detail::ScreenVertex;
 using Vec3 = std::array<double, 3>;
 using Mat3 = std::array<Vec3, 3>;
 
-constexpr int kMaxSide = 16384;         // output pixels per side
-constexpr int kMaxSamplesSide = 32768;  // samples per side (fixed-point range)
-
 double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 Vec3 sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
 Vec3 cross(const Vec3& a, const Vec3& b) {
@@ -52,24 +49,29 @@ void require(bool ok, const std::string& message) {
   if (!ok) throw InvalidInput("render: " + message);
 }
 
+void require_in(double v, const ValueRange& range, const std::string& name) {
+  require(range.contains(v), name + " must be in " + to_string(range));
+}
+
 void validate_options(const RenderOptions& o) {
-  require(o.width >= 1 && o.width <= kMaxSide && o.height >= 1 && o.height <= kMaxSide,
+  require(kImageSideRange.contains(o.width) && kImageSideRange.contains(o.height),
           "size " + std::to_string(o.width) + "x" + std::to_string(o.height) +
-              " is out of range (1..16384 per side)");
-  require(o.supersample >= 1 && o.supersample <= 8, "supersample must be 1..8");
-  require(std::max(o.width, o.height) * o.supersample <= kMaxSamplesSide,
-          "size times supersample must be at most 32768 per side");
-  require(o.ambient >= 0 && o.ambient <= 1, "ambient must be in [0, 1]");
-  require(o.specular >= 0 && o.specular <= 1, "specular must be in [0, 1]");
-  require(o.shininess >= 1 && o.shininess <= 10000, "shininess must be in [1, 10000]");
-  require(o.margin >= 0 && o.margin <= 0.45, "margin must be in [0, 0.45]");
-  for (double c : o.color) require(c >= 0 && c <= 1, "color components must be in [0, 1]");
-  for (double r : o.rotate_deg)
-    require(std::abs(r) <= 3600, "rotation angles must be in [-3600, 3600] degrees");
+              " is out of range (" + to_string(kImageSideRange) + " per side)");
+  require_in(o.supersample, kSupersampleRange, "supersample");
+  require(
+      std::max(o.width, o.height) * o.supersample <= kMaxSamplesPerSide,
+      "size times supersample must be at most " + std::to_string(kMaxSamplesPerSide) + " per side");
+  require_in(o.ambient, kAmbientRange, "ambient");
+  require_in(o.specular, kSpecularRange, "specular");
+  require_in(o.shininess, kShininessRange, "shininess");
+  require_in(o.margin, kMarginRange, "margin");
+  for (double c : o.color) require_in(c, kColorComponentRange, "color components");
+  for (double r : o.rotate_deg) require_in(r, kRotationRange, "rotation angles (degrees)");
   for (std::size_t i = 0; i < o.lights.size(); ++i) {
     const Vec3& l = o.lights[i];
-    require(finite3(l) && dot(l, l) > 0,
-            "light " + std::to_string(i + 1) + " must be a finite non-zero direction");
+    const std::string name = "light " + std::to_string(i + 1);
+    for (double c : l) require_in(c, kLightComponentRange, name + " components");
+    require(dot(l, l) > 0, name + " must be a non-zero direction");
   }
 }
 

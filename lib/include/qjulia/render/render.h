@@ -14,6 +14,7 @@
 
 #include "qjulia/base/mesh.h"
 #include "qjulia/base/progress.h"
+#include "qjulia/field/params.h"  // ValueRange
 #include "qjulia/render/image.h"
 
 namespace qjulia {
@@ -30,27 +31,39 @@ enum class Framing {
             ///< image: the same scale for every rotation
 };
 
+/// The accepted ranges of RenderOptions; render() and check_render_options() enforce them.
+inline constexpr ValueRange kImageSideRange{1, 16384};  ///< width, height (pixels)
+inline constexpr ValueRange kSupersampleRange{1, 8};    ///< samples per pixel side
+inline constexpr int kMaxSamplesPerSide = 32768;        ///< max(width, height) * supersample
+inline constexpr ValueRange kAmbientRange{0, 1};
+inline constexpr ValueRange kSpecularRange{0, 1};
+inline constexpr ValueRange kShininessRange{1, 10000};
+inline constexpr ValueRange kMarginRange{0, 0.45};
+inline constexpr ValueRange kColorComponentRange{0, 1};       ///< RenderOptions::color
+inline constexpr ValueRange kRotationRange{-3600, 3600};      ///< degrees
+inline constexpr ValueRange kLightComponentRange{-1e6, 1e6};  ///< not all three zero
+
 /// Options of render().
 struct RenderOptions {
-  int width = 800, height = 800;  ///< pixels
+  int width = 800, height = 800;  ///< pixels, kImageSideRange
   Shading shading = Shading::kPhong;
   std::vector<std::array<double, 3>> lights;  ///< directions towards the lights (view space);
                                               ///< empty = one default light
-  double ambient = 0.15;                      ///< 0..1
-  double specular = 0.4;                      ///< 0..1 (Phong only)
-  std::array<double, 3> rotate_deg{0, 0, 0};  ///< rotation about X, then Y, then Z, degrees
+  double ambient = 0.15;                      ///< kAmbientRange
+  double specular = 0.4;                      ///< kSpecularRange (Phong only)
+  std::array<double, 3> rotate_deg{0, 0, 0};  ///< about X, then Y, then Z; kRotationRange
   Rgb background{255, 255, 255};
 
-  /// Phong exponent (Phong only), 1..10000.
+  /// Phong exponent (Phong only), kShininessRange.
   double shininess = 32;
   /// Surface colour (linear RGB, 0..1) where the mesh has no vertex colours.
   std::array<double, 3> color{0.80, 0.78, 0.74};
   /// Use the mesh's vertex colours when it has them.
   bool use_vertex_colors = true;
   Framing framing = Framing::kBox;
-  /// Empty border on each side, as a fraction of the smaller image side, 0..0.45.
+  /// Empty border on each side, as a fraction of the smaller image side, kMarginRange.
   double margin = 0.05;
-  /// Anti-aliasing: each pixel is the mean of supersample^2 shaded samples, 1..8.
+  /// Anti-aliasing: each pixel is the mean of supersample^2 shaded samples, kSupersampleRange.
   int supersample = 1;
   /// Checked between the passes and per tile; when requested, render() throws Cancelled.
   const CancelToken* cancel = nullptr;
