@@ -78,6 +78,10 @@ int cmd_render(const Tokens& tokens, const CancelToken& cancel) {
   }
   if (views.empty()) views.push_back(base.rotate_deg);
 
+  std::optional<int> columns_option;
+  if (auto c = args.get("columns"))
+    columns_option = static_cast<int>(parse_int(*c, "--columns", {1, 1000}));
+
   for (const std::string& input : args.positional)
     if (!std::filesystem::is_regular_file(input))
       throw InvalidInput("input '" + input + "': no such file");
@@ -109,9 +113,8 @@ int cmd_render(const Tokens& tokens, const CancelToken& cancel) {
   if (cells.size() == 1 && !args.has("caption") && !args.has("columns")) {
     image = std::move(cells[0].first);
   } else {
-    int columns = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(cells.size()))));
-    if (auto c = args.get("columns"))
-      columns = static_cast<int>(parse_int(*c, "--columns", {1, 1000}));
+    const int columns = columns_option.value_or(
+        static_cast<int>(std::ceil(std::sqrt(static_cast<double>(cells.size())))));
     ContactSheetOptions sheet;
     sheet.background = base.background;
     // Captions at double size when they all fit their cells, else at the font's own size.
