@@ -62,7 +62,7 @@ class Formula {
   /// True when every literal written in the text is real (no i, j, k, no quaternion literal
   /// with a non-zero imaginary part) and every used constant has a zero imaginary part. Then
   /// f(u h u^-1) = u f(h) u^-1 for unit quaternions u: f commutes with rotations of the
-  /// imaginary part (the rotation-symmetry facts of DESIGN.md).
+  /// imaginary part (the rotation-symmetry facts of docs/design.md).
   /// @param[in] constants  constant_names().size() quaternions, as for eval()
   bool has_real_coefficients(const Quat* constants) const;
   /// Number of register operations one eval() runs (h^3 takes 2; literal-only parts fold to 0).

@@ -1,7 +1,7 @@
 #pragma once
 /// @file params.h
 /// The parameter set of a run: the map, the method, the slice, the box, the resolution, and the
-/// options of the later stages. Read from / written to the JSON parameter file of DESIGN.md.
+/// options of the later stages. Read from / written to the JSON parameter file of docs/design.md.
 #include <array>
 #include <optional>
 #include <string>
@@ -35,7 +35,7 @@ inline constexpr ValueRange kMaxErrorRange{1e-9, 1e6};    ///< model units
 inline constexpr ValueRange kMinComponentRange{0, 1e18};  ///< model units^3
 inline constexpr ValueRange kLengthMmRange{0.001, 1e6};   ///< print.size_mm, min_thickness_mm
 
-/// How a point is classified (DESIGN.md, "The mathematics, exactly").
+/// How a point is classified (docs/design.md, section 1).
 enum class Method {
   kEscape,  ///< in the solid when |h_k| <= R for every k in 0..N
   kCutoff,  ///< in the solid when |h_k - h_(k-1)| >= R for every k in 1..N
