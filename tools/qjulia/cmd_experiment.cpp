@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <numeric>
 #include <optional>
 #include <sstream>
@@ -103,6 +104,20 @@ std::optional<CompareResult> distances(const TriMesh& a, const TriMesh& b, const
   CompareResult r = compare(a, b, copts);
   r.a_vertex_distance.clear();
   return r;
+}
+
+// Draws a figure and writes it to `path`. A figure that cannot be drawn or written is left out
+// (the tables do not depend on it): its error is returned. A cancellation is not swallowed.
+std::optional<std::string> write_figure(const std::string& path,
+                                        const std::function<Image()>& draw) {
+  try {
+    write_png(path, draw());
+    return std::nullopt;
+  } catch (const Cancelled&) {
+    throw;
+  } catch (const std::exception& e) {
+    return std::string(e.what());
+  }
 }
 
 double voxel_size(const Params& p) {
@@ -210,12 +225,12 @@ int run_table1(const Options& o) {
 
   // The contact sheet: the 3 x 4 escape grid and the cut-off surface centred below, as in the
   // paper. Each picture is framed on its own surface.
-  std::string sheet_note;
   const std::string png = o.out + "/table1.png";
-  try {
+  const auto sheet_failed = write_figure(png, [&] {
     RenderOptions ro;
     ro.width = ro.height = 220;
     ro.rotate_deg = {-20, 25, 0};
+    ro.cancel = o.cancel;
     auto picture = [&](const Run& run, const std::string& caption) {
       if (!run.mesh.triangles.empty()) return std::make_pair(render(run.mesh, ro), caption);
       Image empty = make_image(ro.width, ro.height, ro.background);
@@ -232,22 +247,22 @@ int run_table1(const Options& o) {
         picture(cut, "cut-off N=" + std::to_string(base.iterations) + " R=" + fmt(base.bailout)));
     ContactSheetOptions sheet;
     sheet.center_last_row = true;
-    write_png(png, contact_sheet(pictures, static_cast<int>(bailouts.size()), sheet));
-    sheet_note =
-        "Contact sheet: table1.png (rows: 5, 12, 24 iterations; columns: bailout 0.8, "
-        "1, 2, 4; bottom: the cut-off method). Each picture is framed on its own "
-        "surface.\n";
-  } catch (const std::exception& e) {
-    sheet_note = std::string("Contact sheet skipped: ") + e.what() + "\n";
-    std::fprintf(stderr, "table1: contact sheet skipped (%s)\n", e.what());
-  }
+    return contact_sheet(pictures, static_cast<int>(bailouts.size()), sheet);
+  });
+  const std::string sheet_note =
+      sheet_failed ? "Contact sheet skipped: " + *sheet_failed + "\n"
+                   : "Contact sheet: table1.png (rows: 5, 12, 24 iterations; columns: bailout "
+                     "0.8, 1, 2, 4; bottom: the cut-off method). Each picture is framed on its "
+                     "own surface.\n";
+  if (sheet_failed)
+    std::fprintf(stderr, "table1: contact sheet skipped (%s)\n", sheet_failed->c_str());
   md << "\n" << sheet_note;
 
   write_file_atomic(o.out + "/table1.csv", csv.str());
   write_file_atomic(o.out + "/table1.md", md.str());
   std::fputs(md.str().c_str(), stdout);
   std::printf("\nwrote %s/table1.md, %s/table1.csv%s\n", o.out.c_str(), o.out.c_str(),
-              sheet_note.rfind("Contact sheet:", 0) == 0 ? (", " + png).c_str() : "");
+              sheet_failed ? "" : (", " + png).c_str());
   return 0;
 }
 
@@ -362,34 +377,31 @@ int run_cardioid(const Options& o) {
        << " | " << m(hausdorff.back()) << " | " << m(mean_ec.back()) << " | " << m(mean_ce.back())
        << " |\n";
   }
-  std::string plot_note;
   const std::string png = o.out + "/cardioid.png";
-  try {
+  const auto plot_failed = write_figure(png, [&] {
     PlotOptions po;
     po.title = "Escape vs cut-off: distance";
     po.x_label = "iterations N";
     po.reference = voxel;
     po.reference_label = "one voxel";
-    const Image im = log_plot(std::vector<double>(iterations.begin(), iterations.end()),
-                              {{"Hausdorff", {210, 30, 30}, hausdorff},
-                               {"mean escape -> cut-off", {30, 80, 210}, mean_ec},
-                               {"mean cut-off -> escape", {20, 150, 60}, mean_ce}},
-                              po);
-    write_png(png, im);
-    plot_note =
-        "\nPlot: cardioid.png (log-log; x: iterations; y: distance; red: Hausdorff distance; blue: "
-        "mean escape -> cut-off; green: mean cut-off -> escape; dashed grey: one "
-        "voxel).\n";
-  } catch (const std::exception& e) {
-    plot_note = std::string("\nPlot skipped: ") + e.what() + "\n";
-    std::fprintf(stderr, "cardioid: plot skipped (%s)\n", e.what());
-  }
+    return log_plot(std::vector<double>(iterations.begin(), iterations.end()),
+                    {{"Hausdorff", {210, 30, 30}, hausdorff},
+                     {"mean escape -> cut-off", {30, 80, 210}, mean_ec},
+                     {"mean cut-off -> escape", {20, 150, 60}, mean_ce}},
+                    po);
+  });
+  const std::string plot_note =
+      plot_failed ? "\nPlot skipped: " + *plot_failed + "\n"
+                  : "\nPlot: cardioid.png (log-log; x: iterations; y: distance; red: Hausdorff "
+                    "distance; blue: mean escape -> cut-off; green: mean cut-off -> escape; "
+                    "dashed grey: one voxel).\n";
+  if (plot_failed) std::fprintf(stderr, "cardioid: plot skipped (%s)\n", plot_failed->c_str());
   md << plot_note;
   write_file_atomic(o.out + "/cardioid.csv", csv.str());
   write_file_atomic(o.out + "/cardioid.md", md.str());
   std::fputs(md.str().c_str(), stdout);
   std::printf("\nwrote %s/cardioid.md, %s/cardioid.csv%s\n", o.out.c_str(), o.out.c_str(),
-              plot_note.rfind("\nPlot:", 0) == 0 ? (", " + png).c_str() : "");
+              plot_failed ? "" : (", " + png).c_str());
   return 0;
 }
 
