@@ -136,42 +136,51 @@ std::string bounds_text(const Params& p) {
 // ---------------------------------------------------------------------------------------------
 // table1
 
-int run_table1(const Options& o) {
+// The paper's table: the escape method at every (bailout, iterations) against the cut-off
+// reference.
+struct Table1 {
   const std::vector<double> bailouts = {0.8, 1, 2, 4};
   const std::vector<int> iterations = {5, 12, 24};
-  Params base = preset("newton-cubic");
-  base.resolution = o.resolution;
-  validate(base);
-
-  std::fprintf(stderr, "table1: cut-off reference (preset newton-cubic, resolution %d)\n",
-               o.resolution);
-  const Run cut = mesh_of(base, o);
-  if (cut.mesh.triangles.empty())
-    throw std::runtime_error("table1: the cut-off reference surface is empty");
-
+  Params base;  // the cut-off reference: preset newton-cubic
+  Run cut;
   struct Cell {
     double bailout;
     int iterations;
     Run run;
-    std::optional<CompareResult> d;
+    std::optional<CompareResult> d;  // to the cut-off surface; none when empty
   };
-  std::vector<Cell> cells;
-  for (int n : iterations)
-    for (double r : bailouts) {
-      Params p = base;
+  std::vector<Cell> cells;  // row by row: iterations, then bailout
+};
+
+Table1 mesh_table1(const Options& o) {
+  Table1 t;
+  t.base = preset("newton-cubic");
+  t.base.resolution = o.resolution;
+  validate(t.base);
+  std::fprintf(stderr, "table1: cut-off reference (preset newton-cubic, resolution %d)\n",
+               o.resolution);
+  t.cut = mesh_of(t.base, o);
+  if (t.cut.mesh.triangles.empty())
+    throw std::runtime_error("table1: the cut-off reference surface is empty");
+  for (int n : t.iterations)
+    for (double r : t.bailouts) {
+      Params p = t.base;
       p.method = Method::kEscape;
       p.bailout = r;
       p.iterations = n;
-      Cell c{r, n, mesh_of(p, o), std::nullopt};
-      c.d = distances(c.run.mesh, cut.mesh, o);
+      Table1::Cell c{r, n, mesh_of(p, o), std::nullopt};
+      c.d = distances(c.run.mesh, t.cut.mesh, o);
       std::fprintf(stderr,
                    "table1: escape R=%g N=%d: %zu faces, volume %.4g, hausdorff %s (%.1f s)\n", r,
                    n, c.run.measure.faces, c.run.measure.volume,
                    c.d ? fmt(c.d->hausdorff).c_str() : "n/a (empty)", c.run.seconds);
-      cells.push_back(std::move(c));
+      t.cells.push_back(std::move(c));
     }
+  return t;
+}
 
-  // CSV: one row per surface, the cut-off reference first.
+// One row per surface, the cut-off reference first.
+std::string table1_csv(const Table1& t, const Options& o) {
   std::ostringstream csv;
   csv << "method,bailout,iterations,resolution,vertices,faces,volume,area,components,closed,"
          "hausdorff_to_cutoff,escape_to_cutoff_max,escape_to_cutoff_mean,cutoff_to_escape_max,"
@@ -188,79 +197,89 @@ int run_table1(const Options& o) {
     else
       csv << ",,,,\n";
   };
-  csv_row("cutoff", base.bailout, base.iterations, cut.measure, CompareResult{});
-  for (const auto& c : cells) csv_row("escape", c.bailout, c.iterations, c.run.measure, c.d);
+  csv_row("cutoff", t.base.bailout, t.base.iterations, t.cut.measure, CompareResult{});
+  for (const auto& c : t.cells) csv_row("escape", c.bailout, c.iterations, c.run.measure, c.d);
+  return csv.str();
+}
 
-  // Markdown: one table per quantity, rows = iterations, columns = bailout, as in the paper.
+// One table per quantity, rows = iterations, columns = bailout, as in the paper.
+std::string table1_markdown(const Table1& t, const Options& o) {
+  const MeshMeasure& cut = t.cut.measure;
   std::ostringstream md;
   md << "# Table 1: the escape method on Newton's cubic, against the cut-off method\n\n"
-     << "T(h) = (2h^3+1)/(3h^2), slice (r, i, j) at k = 0, box " << bounds_text(base)
-     << ", resolution " << o.resolution << " (voxel " << fmt(voxel_size(base)) << ").\n"
-     << "Reference: the cut-off method (preset newton-cubic: " << base.iterations
-     << " iterations, cut-off rate " << fmt(base.bailout) << "): volume " << fmt(cut.measure.volume)
-     << ", area " << fmt(cut.measure.area) << ", " << cut.measure.components.size()
-     << " component(s), " << cut.measure.faces << " faces.\n"
+     << "T(h) = (2h^3+1)/(3h^2), slice (r, i, j) at k = 0, box " << bounds_text(t.base)
+     << ", resolution " << o.resolution << " (voxel " << fmt(voxel_size(t.base)) << ").\n"
+     << "Reference: the cut-off method (preset newton-cubic: " << t.base.iterations
+     << " iterations, cut-off rate " << fmt(t.base.bailout) << "): volume " << fmt(cut.volume)
+     << ", area " << fmt(cut.area) << ", " << cut.components.size() << " component(s), "
+     << cut.faces << " faces.\n"
      << "Made by `qjulia experiment table1 --resolution " << o.resolution << "`.\n";
   auto grid = [&](const std::string& title, auto value) {
     md << "\n### " << title << "\n\n| iterations \\ bailout |";
-    for (double r : bailouts) md << " R = " << fmt(r) << " |";
+    for (double r : t.bailouts) md << " R = " << fmt(r) << " |";
     md << "\n|---|";
-    for (std::size_t i = 0; i < bailouts.size(); ++i) md << "---:|";
+    for (std::size_t i = 0; i < t.bailouts.size(); ++i) md << "---:|";
     md << "\n";
-    for (int n : iterations) {
+    for (int n : t.iterations) {
       md << "| " << n << " |";
-      for (const auto& c : cells)
+      for (const auto& c : t.cells)
         if (c.iterations == n) md << ' ' << value(c) << " |";
       md << "\n";
     }
   };
+  using Cell = Table1::Cell;
   grid("Hausdorff distance to the cut-off surface",
        [](const Cell& c) { return c.d ? fmt(c.d->hausdorff) : std::string("empty"); });
-  grid("Volume (cut-off: " + fmt(cut.measure.volume) + ")",
+  grid("Volume (cut-off: " + fmt(cut.volume) + ")",
        [](const Cell& c) { return fmt(c.run.measure.volume); });
-  grid("Area (cut-off: " + fmt(cut.measure.area) + ")",
+  grid("Area (cut-off: " + fmt(cut.area) + ")",
        [](const Cell& c) { return fmt(c.run.measure.area); });
-  grid("Components (cut-off: " + std::to_string(cut.measure.components.size()) + ")",
+  grid("Components (cut-off: " + std::to_string(cut.components.size()) + ")",
        [](const Cell& c) { return std::to_string(c.run.measure.components.size()); });
+  return md.str();
+}
 
-  // The contact sheet: the 3 x 4 escape grid and the cut-off surface centred below, as in the
-  // paper. Each picture is framed on its own surface.
-  const std::string png = o.out + "/table1.png";
-  const auto sheet_failed = write_figure(png, [&] {
-    RenderOptions ro;
-    ro.width = ro.height = 220;
-    ro.rotate_deg = {-20, 25, 0};
-    ro.cancel = o.cancel;
-    auto picture = [&](const Run& run, const std::string& caption) {
-      if (!run.mesh.triangles.empty()) return std::make_pair(render(run.mesh, ro), caption);
-      Image empty = make_image(ro.width, ro.height, ro.background);
-      const std::string text = "empty";
-      draw_text(empty, (ro.width - text_width(text, 2)) / 2, (ro.height - text_height(2)) / 2, text,
-                {120, 120, 120}, 2);
-      return std::make_pair(std::move(empty), caption);
-    };
-    std::vector<std::pair<Image, std::string>> pictures;
-    for (const auto& c : cells)
-      pictures.push_back(
-          picture(c.run, "escape R=" + fmt(c.bailout) + " N=" + std::to_string(c.iterations)));
+// The 3 x 4 escape grid and the cut-off surface centred below, as in the paper; each picture
+// framed on its own surface.
+Image table1_sheet(const Table1& t, const Options& o) {
+  RenderOptions ro;
+  ro.width = ro.height = 220;
+  ro.rotate_deg = {-20, 25, 0};
+  ro.cancel = o.cancel;
+  auto picture = [&](const Run& run, const std::string& caption) {
+    if (!run.mesh.triangles.empty()) return std::make_pair(render(run.mesh, ro), caption);
+    Image empty = make_image(ro.width, ro.height, ro.background);
+    const std::string text = "empty";
+    draw_text(empty, (ro.width - text_width(text, 2)) / 2, (ro.height - text_height(2)) / 2, text,
+              {120, 120, 120}, 2);
+    return std::make_pair(std::move(empty), caption);
+  };
+  std::vector<std::pair<Image, std::string>> pictures;
+  for (const auto& c : t.cells)
     pictures.push_back(
-        picture(cut, "cut-off N=" + std::to_string(base.iterations) + " R=" + fmt(base.bailout)));
-    ContactSheetOptions sheet;
-    sheet.center_last_row = true;
-    return contact_sheet(pictures, static_cast<int>(bailouts.size()), sheet);
-  });
-  const std::string sheet_note =
-      sheet_failed ? "Contact sheet skipped: " + *sheet_failed + "\n"
-                   : "Contact sheet: table1.png (rows: 5, 12, 24 iterations; columns: bailout "
-                     "0.8, 1, 2, 4; bottom: the cut-off method). Each picture is framed on its "
-                     "own surface.\n";
+        picture(c.run, "escape R=" + fmt(c.bailout) + " N=" + std::to_string(c.iterations)));
+  pictures.push_back(picture(
+      t.cut, "cut-off N=" + std::to_string(t.base.iterations) + " R=" + fmt(t.base.bailout)));
+  ContactSheetOptions sheet;
+  sheet.center_last_row = true;
+  return contact_sheet(pictures, static_cast<int>(t.bailouts.size()), sheet);
+}
+
+int run_table1(const Options& o) {
+  const Table1 t = mesh_table1(o);
+  const std::string png = o.out + "/table1.png";
+  const auto sheet_failed = write_figure(png, [&] { return table1_sheet(t, o); });
   if (sheet_failed)
     std::fprintf(stderr, "table1: contact sheet skipped (%s)\n", sheet_failed->c_str());
-  md << "\n" << sheet_note;
-
-  write_file_atomic(o.out + "/table1.csv", csv.str());
-  write_file_atomic(o.out + "/table1.md", md.str());
-  std::fputs(md.str().c_str(), stdout);
+  const std::string md =
+      table1_markdown(t, o) + "\n" +
+      (sheet_failed ? "Contact sheet skipped: " + *sheet_failed + "\n"
+                    : "Contact sheet: table1.png (rows: 5, 12, 24 iterations; columns: bailout "
+                      "0.8, 1, 2, 4; bottom: the cut-off method). Each picture is framed on its "
+                      "own surface.\n");
+  write_file_atomic(o.out + "/table1.csv", table1_csv(t, o));
+  write_file_atomic(o.out + "/table1.md", md);
+  std::fputs(md.c_str(), stdout);
   std::printf("\nwrote %s/table1.md, %s/table1.csv%s\n", o.out.c_str(), o.out.c_str(),
               sheet_failed ? "" : (", " + png).c_str());
   return 0;
