@@ -229,6 +229,7 @@ int cmd_compare(const Tokens& tokens, const CancelToken& cancel) {
   print_table(r, sources[0].label(), sources[1].label());
   std::printf("  time                 A %.2f s (%s), B %.2f s (%s), compare %.2f s\n", time_a,
               params[0] ? "meshed" : "read", time_b, params[1] ? "meshed" : "read", time_compare);
+  throw_if_cancelled(&cancel);
   if (!json_path.empty())
     write_file_atomic(json_path, compare_to_json(r, sources[0].label(), sources[1].label()));
   if (!colored_path.empty()) {

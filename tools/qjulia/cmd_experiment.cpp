@@ -267,8 +267,10 @@ Image table1_sheet(const Table1& t, const Options& o) {
 
 int run_table1(const Options& o) {
   const Table1 t = mesh_table1(o);
+  OutputFiles written;  // removed again unless every file is written
   const std::string png = o.out + "/table1.png";
   const auto sheet_failed = write_figure(png, [&] { return table1_sheet(t, o); });
+  if (!sheet_failed) written.add(png);
   if (sheet_failed)
     std::fprintf(stderr, "table1: contact sheet skipped (%s)\n", sheet_failed->c_str());
   const std::string md =
@@ -277,8 +279,13 @@ int run_table1(const Options& o) {
                     : "Contact sheet: table1.png (rows: 5, 12, 24 iterations; columns: bailout "
                       "0.8, 1, 2, 4; bottom: the cut-off method). Each picture is framed on its "
                       "own surface.\n");
-  write_file_atomic(o.out + "/table1.csv", table1_csv(t, o));
-  write_file_atomic(o.out + "/table1.md", md);
+  for (const auto& [name, text] :
+       {std::pair<std::string, std::string>{"table1.csv", table1_csv(t, o)}, {"table1.md", md}}) {
+    write_file_atomic(o.out + "/" + name, text);
+    written.add(o.out + "/" + name);
+  }
+  throw_if_cancelled(o.cancel);
+  written.commit();
   std::fputs(md.c_str(), stdout);
   std::printf("\nwrote %s/table1.md, %s/table1.csv%s\n", o.out.c_str(), o.out.c_str(),
               sheet_failed ? "" : (", " + png).c_str());
@@ -396,6 +403,7 @@ int run_cardioid(const Options& o) {
        << " | " << m(hausdorff.back()) << " | " << m(mean_ec.back()) << " | " << m(mean_ce.back())
        << " |\n";
   }
+  OutputFiles written;  // removed again unless every file is written
   const std::string png = o.out + "/cardioid.png";
   const auto plot_failed = write_figure(png, [&] {
     PlotOptions po;
@@ -416,8 +424,14 @@ int run_cardioid(const Options& o) {
                     "dashed grey: one voxel).\n";
   if (plot_failed) std::fprintf(stderr, "cardioid: plot skipped (%s)\n", plot_failed->c_str());
   md << plot_note;
-  write_file_atomic(o.out + "/cardioid.csv", csv.str());
-  write_file_atomic(o.out + "/cardioid.md", md.str());
+  if (!plot_failed) written.add(png);
+  for (const auto& [name, text] : {std::pair<std::string, std::string>{"cardioid.csv", csv.str()},
+                                   {"cardioid.md", md.str()}}) {
+    write_file_atomic(o.out + "/" + name, text);
+    written.add(o.out + "/" + name);
+  }
+  throw_if_cancelled(o.cancel);
+  written.commit();
   std::fputs(md.str().c_str(), stdout);
   std::printf("\nwrote %s/cardioid.md, %s/cardioid.csv%s\n", o.out.c_str(), o.out.c_str(),
               plot_failed ? "" : (", " + png).c_str());

@@ -127,6 +127,7 @@ int cmd_render(const Tokens& tokens, const CancelToken& cancel) {
     if (luma < 128) sheet.text_color = {230, 230, 230};  // light text on a dark sheet
     image = contact_sheet(cells, columns, sheet);
   }
+  throw_if_cancelled(&cancel);  // a signal while the cells were assembled
   write_png(*out, image);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
