@@ -62,8 +62,8 @@ std::vector<Point> random_points(int count, double lo, double hi, unsigned seed)
 }
 
 // ---------------------------------------------------------------------------------------------
-// An independent implementation of the table of DESIGN.md on quaternion.h's arithmetic: the map
-// is given as C++ code, not as a formula, so it shares nothing with the formula compiler.
+// An independent implementation of the table of docs/design.md on quaternion.h's arithmetic: the
+// map is given as C++ code, not as a formula, so it shares nothing with the formula compiler.
 
 using Map = std::function<Quat(const Quat&)>;
 
@@ -437,11 +437,11 @@ TEST(Classify, RealCoefficientMapsAreSymmetricAboutTheRealAxis) {
   }
 }
 
-// h^2 + c on complex numbers, by DESIGN.md's table and field formula.
+// h^2 + c on complex numbers, by docs/design.md's table and field formula.
 struct ComplexOrbit {
   bool inside;
   int exit_step;  // -1 if it never left
-  double field;   // DESIGN.md's F (meaningful for exit_step != 0)
+  double field;   // docs/design.md's F (meaningful for exit_step != 0)
 };
 
 ComplexOrbit complex_escape(std::complex<double> z, std::complex<double> c, int n, double r) {

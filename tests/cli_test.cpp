@@ -88,8 +88,8 @@ class Cli : public ::testing::Test {
 
   // Bad input: exit code 2, exactly one line on stderr that contains `names`, and no file
   // written besides `inputs`.
-  void expect_rejected(const std::string& args, const std::string& names,
-                       std::vector<std::string> inputs = {}) const {
+  CliRun expect_rejected(const std::string& args, const std::string& names,
+                         std::vector<std::string> inputs = {}) const {
     SCOPED_TRACE("qjulia " + args);
     const CliRun r = run(args);
     EXPECT_EQ(r.code, 2) << "stderr: " << r.err;
@@ -100,6 +100,7 @@ class Cli : public ::testing::Test {
         << "the message should name '" << names << "': " << r.err;
     std::sort(inputs.begin(), inputs.end());
     EXPECT_EQ(files(), inputs) << "bad input must not leave files";
+    return r;
   }
 
   fs::path root_, work_;
@@ -318,6 +319,166 @@ TEST_F(Cli, MeshToStlWritesTheParametersBesideIt) {
   expected.iterations = 7;
   const Params written = parse_params(read_text(work_ / "ball.stl.json"));
   EXPECT_EQ(params_to_json(written), params_to_json(expected));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Numeric ranges: every numeric option at both ends of its range, just outside, and with nan,
+// inf and 1e400. Outside: exit 2, one line naming the option and the range, no file.
+
+// One numeric option of one command.
+struct NumericOption {
+  std::string command;                  // the command line before the option, e.g. "params"
+  std::string option;                   // "--iterations"
+  std::string format;                   // how the value is given, '@' for it: "@", "c=0,@,0,0"
+  std::string low, high, below, above;  // the ends and just outside them
+  std::string range;                    // what the message quotes, e.g. "1..100000"
+  // At the ends: "" expects exit 0; otherwise the later, deliberate failure the run reaches
+  // (so an end that would take long, such as --samples 100000000, is shown to be accepted
+  // without doing the work).
+  std::string later_failure;
+};
+
+std::string with_value(const std::string& format, const std::string& value) {
+  std::string out = format;
+  out.replace(out.find('@'), 1, value);
+  return out;
+}
+
+std::vector<NumericOption> numeric_options() {
+  const std::string cube = "1000000,1000000,1000000";
+  const std::string render = "render missing.ply -o x.png";  // options are read first
+  const std::string compare = "compare missing-a.ply missing-b.ply";
+  const std::string experiment = "experiment no-such-experiment";
+  const std::string bench = "bench --presets no-such-preset";
+  return {
+      // the parameter flags (mesh, compare, params: params prints them back)
+      {"params", "--iterations", "@", "1", "100000", "0", "100001", "1..100000", ""},
+      {"params", "--bailout", "@", "1e-12", "1e12", "9e-13", "1.1e12", "1e-12..1e+12", ""},
+      {"params", "--resolution", "@", "1", "1000000", "0", "1000001", "1..1000000", ""},
+      // min < max: each end is reached by the component on its side
+      {"params", "--bounds", "@,-1000000,-1000000," + cube, "-1000000", "-1000000", "-1000001", "",
+       "-1000000..1000000", ""},
+      {"params", "--bounds", "-1000000,-1000000,-1000000,@,1000000,1000000", "1000000", "1000000",
+       "", "1000001", "-1000000..1000000", ""},
+      {"params", "--fixed", "@", "-1000000", "1000000", "-1000001", "1000001", "-1000000..1000000",
+       ""},
+      {"params --mode mandelbrot --formula h^2+c", "--start", "0,0,@,0", "-1000000", "1000000",
+       "-1000001", "1000001", "-1000000..1000000", ""},
+      {"params --formula h^2+c", "--const", "c=0,@,0,0", "-1000000", "1000000", "-1000001",
+       "1000001", "-1000000..1000000", ""},
+      {"params", "--clip", "0,0,1,@", "-1000000", "1000000", "-1000001", "1000001",
+       "-1000000..1000000", ""},
+      {"params", "--faces", "@", "4", "1000000000", "3", "1000000001", "4..1000000000", ""},
+      {"params", "--max-error", "@", "1e-9", "1000000", "9e-10", "1000001", "1e-09..1000000", ""},
+      {"params", "--min-component", "@", "0", "1e18", "-1e-9", "1.1e18", "0..1e+18", ""},
+      {"params", "--size", "@mm", "0.001", "1000000", "0.0009", "1000001", "0.001..1000000", ""},
+      {"params", "--min-thickness", "@", "0.001", "1000000", "0.0009", "1000001", "0.001..1000000",
+       ""},
+      // qjulia mesh's own
+      {"mesh --preset unit-ball --resolution 16 -o ball.ply", "--threads", "@", "1", "1024", "0",
+       "1025", "1..1024", ""},
+      {"mesh --preset unit-ball --resolution 16 -o ball.ply", "--max-memory", "@", "1M", "8000000T",
+       "1023K", "9000000T", "at least 1M", "memory"},
+      // qjulia render (and mesh --preview-*, which share the code)
+      {render, "--size", "@", "1", "16384", "0", "16385", "1..16384", "missing.ply"},
+      {render, "--size", "@x1", "1", "16384", "0", "16385", "1..16384", "missing.ply"},
+      {render, "--ambient", "@", "0", "1", "-0.01", "1.01", "0..1", "missing.ply"},
+      {render, "--specular", "@", "0", "1", "-0.01", "1.01", "0..1", "missing.ply"},
+      {render, "--shininess", "@", "1", "10000", "0.99", "10001", "1..10000", "missing.ply"},
+      {render, "--margin", "@", "0", "0.45", "-0.01", "0.46", "0..0.45", "missing.ply"},
+      {render, "--supersample", "@", "1", "8", "0", "9", "1..8", "missing.ply"},
+      {render, "--rotate", "@,0,0", "-3600", "3600", "-3601", "3601", "-3600..3600", "missing.ply"},
+      {render, "--view", "0,0,@", "-3600", "3600", "-3601", "3601", "-3600..3600", "missing.ply"},
+      {render, "--light", "@,0,1", "-1000000", "1000000", "-1000001", "1000001",
+       "-1000000..1000000", "missing.ply"},
+      {render, "--background", "@,0,0", "0", "255", "-1", "256", "0..255", "missing.ply"},
+      {render, "--base-color", "0,0,@", "0", "255", "-1", "256", "0..255", "missing.ply"},
+      {render, "--columns", "@", "1", "1000", "0", "1001", "1..1000", "missing.ply"},
+      {render, "--threads", "@", "1", "1024", "0", "1025", "1..1024", "missing.ply"},
+      {"mesh --preset unit-ball --resolution 16 -o b.ply --preview p.png --preview-size 16",
+       "--preview-supersample", "@", "1", "8", "0", "9", "1..8", ""},
+      // qjulia compare, experiment, bench
+      {compare, "--samples", "@", "0", "100000000", "-1", "100000001", "0..100000000",
+       "missing-a.ply"},
+      {compare, "--threads", "@", "1", "1024", "0", "1025", "1..1024", "missing-a.ply"},
+      {experiment, "--resolution", "@", "8", "1024", "7", "1025", "8..1024", "no-such-experiment"},
+      {experiment, "--samples", "@", "0", "100000000", "-1", "100000001", "0..100000000",
+       "no-such-experiment"},
+      {experiment, "--threads", "@", "1", "1024", "0", "1025", "1..1024", "no-such-experiment"},
+      {"experiment cardioid --out /proc/qjulia-no-such-dir", "--iterations", "4,@", "1", "10000",
+       "0", "10001", "1..10000", "/proc/qjulia-no-such-dir"},
+      {bench, "--resolutions", "16,@", "1", "1000000", "0", "1000001", "1..1000000",
+       "no-such-preset"},
+      {bench, "--threads", "@", "1", "1024", "0", "1025", "1..1024", "no-such-preset"},
+      {bench, "--max-memory", "@", "1M", "8000000T", "1023K", "9000000T", "at least 1M",
+       "no-such-preset"},
+  };
+}
+
+TEST_F(Cli, EveryNumericOptionIsAcceptedAtBothEndsOfItsRange) {
+  for (const NumericOption& o : numeric_options())
+    for (const std::string& end : {o.low, o.high}) {
+      const std::string args = o.command + " " + o.option + " " + with_value(o.format, end);
+      SCOPED_TRACE("qjulia " + args);
+      const CliRun r = run(args);
+      EXPECT_EQ(r.err.find(o.option + ":"), std::string::npos) << "refused: " << r.err;
+      if (o.later_failure.empty()) {
+        EXPECT_EQ(r.code, 0) << r.err;
+      } else if (o.later_failure != "memory") {
+        EXPECT_EQ(r.code, 2) << r.err;
+        EXPECT_NE(r.err.find(o.later_failure), std::string::npos) << r.err;
+      } else {  // the run may still be refused by the memory estimate, never by the option
+        EXPECT_TRUE(r.code == 0 || r.err.find("memory") != std::string::npos) << r.err;
+      }
+      std::error_code ec;
+      for (const auto& f : files()) fs::remove_all(work_ / f, ec);
+    }
+}
+
+TEST_F(Cli, NumericOptionsOutsideTheirRangeNameTheOptionAndTheRange) {
+  for (const NumericOption& o : numeric_options()) {
+    std::vector<std::string> outside = {"nan", "inf", "-inf", "1e400"};
+    for (const std::string& v : {o.below, o.above})
+      if (!v.empty()) outside.push_back(v);
+    for (const std::string& value : outside) {
+      const std::string args = o.command + " " + o.option + " " + with_value(o.format, value);
+      const CliRun r = expect_rejected(args, o.option);
+      EXPECT_NE(r.err.find(o.range), std::string::npos)
+          << "qjulia " << args << ": the message should quote the range " << o.range << ": "
+          << r.err;
+    }
+  }
+}
+
+TEST_F(Cli, HelpStatesTheRangeOfEveryNumericOption) {
+  for (const NumericOption& o : numeric_options()) {
+    const std::string command = o.command.substr(0, o.command.find(' '));
+    if (command == "params") continue;  // params lists no options: mesh --help has them
+    const CliRun r = run(command + " --help");
+    ASSERT_EQ(r.code, 0) << command;
+    EXPECT_NE(r.out.find(o.option), std::string::npos) << command << " --help: " << o.option;
+    EXPECT_NE(r.out.find(o.range), std::string::npos)
+        << "qjulia " << command << " --help should state the range of " << o.option << ": "
+        << o.range;
+  }
+  const CliRun mesh = run("mesh --help");
+  for (const NumericOption& o : numeric_options()) {
+    if (o.command.rfind("params", 0) != 0) continue;
+    EXPECT_NE(mesh.out.find(o.range), std::string::npos)
+        << "qjulia mesh --help should state the range of " << o.option << ": " << o.range;
+  }
+}
+
+TEST_F(Cli, AParameterFileNumberBeyondItsRangeNamesTheKeyAndTheRange) {
+  write_text(work_ / "p.json", R"({"formula": "h^2", "bailout": 1e400})");
+  expect_rejected("mesh p.json --resolution 16 -o out.ply", "'bailout' must be in 1e-12..1e+12",
+                  {"p.json"});
+  write_text(work_ / "p.json", R"({"formula": "h^2", "iterations": 100001})");
+  expect_rejected("params p.json", "'iterations' must be an integer in 1..100000", {"p.json"});
+  write_text(work_ / "p.json", R"({"formula": "h^2", "resolution": 1000001})");
+  expect_rejected("params p.json", "1..1000000", {"p.json"});
+  write_text(work_ / "p.json", R"({"formula": "h^2", "bailout": NaN})");
+  expect_rejected("params p.json", "not valid JSON", {"p.json"});
 }
 
 }  // namespace

@@ -167,7 +167,7 @@ TEST(Compare, DistanceColorsRampFromBlueToRed) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The methods compared: the escape method fails on Newton's cubic (DESIGN.md; the paper's
+// The methods compared: the escape method fails on Newton's cubic (docs/design.md; the paper's
 // table 1). Its solid is the bailout ball with holes, the cut-off solid a thin shell around J.
 
 TEST(Compare, UnitBallMeshedAtTwoResolutionsComparesWithinOneVoxelOfTheCoarser) {

@@ -135,7 +135,7 @@ TEST(Extract, UnitBallAt512CostsAtMostThreePercentOfADenseGrid) {
   EXPECT_LE(static_cast<double>(grid.evaluations()), 0.03 * grid.dense_evaluations());
 }
 
-// Independent complex-arithmetic classifiers (DESIGN.md's methods on C).
+// Independent complex-arithmetic classifiers (docs/design.md's methods on C).
 using Cx = std::complex<double>;
 
 bool complex_cutoff_inside(Cx z, Cx (*f)(Cx), int n, double r) {

@@ -4,8 +4,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <functional>
 #include <limits>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "qjulia/base/error.h"
 
@@ -257,13 +261,15 @@ TEST(Params, ParseAlsoValidates) {
 TEST(Validate, TheDefaultsAreValid) { EXPECT_NO_THROW(validate(Params{})); }
 
 TEST(Validate, RejectsResolutionOutsideTheRange) {
-  for (int r : {0, 1, 5000, -3}) {
+  // 1..1000000: what fits in memory is the memory estimate's to decide, not a fixed cap.
+  for (int r : {0, -3, 1000001}) {
     Params p;
     p.resolution = r;
     const std::string msg = validate_error(p);
     EXPECT_NE(msg.find("resolution"), std::string::npos) << r << ": " << msg;
+    EXPECT_NE(msg.find("1..1000000"), std::string::npos) << r << ": " << msg;
   }
-  for (int r : {2, 4096}) {
+  for (int r : {1, 2, 4096, 5000, 1000000}) {
     Params p;
     p.resolution = r;
     EXPECT_NO_THROW(validate(p)) << r;
@@ -420,6 +426,119 @@ TEST(Slice, AGeneralSliceResolvesToItself) {
   const Slice::General g = s.resolved();
   expect_quat(g.origin, s.general->origin);
   for (int k = 0; k < 3; ++k) expect_quat(g.directions[k], s.general->directions[k]);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Numeric ranges: every number of the parameter file, at both ends of its range and beyond
+
+// A parameter-file key, a file with `@` where the number goes, and the ends of its range.
+struct RangeCase {
+  std::string key;
+  std::string file;
+  ValueRange range;
+  std::string below, above;  // just outside the range
+};
+
+std::vector<RangeCase> range_cases() {
+  return {
+      {"iterations", R"({"iterations": @})", kIterationsRange, "0", "100001"},
+      {"bailout", R"({"bailout": @})", kBailoutRange, "9e-13", "1.1e12"},
+      {"resolution", R"({"resolution": @})", kResolutionRange, "0", "1000001"},
+      {"bounds.min", R"({"bounds": {"min": [@, -1e6, -1e6], "max": [1e6, 1e6, 1e6]}})",
+       kCoordinateRange, "-1000001", ""},
+      {"bounds.max", R"({"bounds": {"min": [-1e6, -1e6, -1e6], "max": [@, 1e6, 1e6]}})",
+       kCoordinateRange, "", "1000001"},
+      {"slice.fixed", R"({"slice": {"axes": "rmn", "fixed": @}})", kCoordinateRange, "-1.1e6",
+       "1.1e6"},
+      {"constants.c", R"({"formula": "h^2+c", "constants": {"c": [0, @, 0, 0]}})", kCoordinateRange,
+       "-1.1e6", "1.1e6"},
+      {"start", R"({"mode": "mandelbrot", "formula": "h^2+c", "start": [@, 0, 0, 0]})",
+       kCoordinateRange, "-1.1e6", "1.1e6"},
+      {"mesh.clip", R"({"mesh": {"clip": [[0, 0, 1, @]]}})", kCoordinateRange, "-1.1e6", "1.1e6"},
+      {"mesh.faces", R"({"mesh": {"faces": @}})", kFacesRange, "3", "1000000001"},
+      {"mesh.max_error", R"({"mesh": {"max_error": @}})", kMaxErrorRange, "9e-10", "1.1e6"},
+      {"mesh.min_component", R"({"mesh": {"min_component": @}})", kMinComponentRange, "-1e-9",
+       "1.1e18"},
+      {"print.size_mm", R"({"print": {"size_mm": @}})", kLengthMmRange, "0.0009", "1.1e6"},
+      {"print.min_thickness_mm", R"({"print": {"min_thickness_mm": @}})", kLengthMmRange, "0.0009",
+       "1.1e6"},
+  };
+}
+
+std::string with_number(const std::string& file, const std::string& number) {
+  std::string out = file;
+  out.replace(out.find('@'), 1, number);
+  return out;
+}
+
+std::string number_json(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+TEST(Ranges, EveryNumberOfTheParameterFileIsAcceptedAtBothEndsOfItsRange) {
+  for (const RangeCase& c : range_cases())
+    for (double end : {c.range.min, c.range.max}) {
+      // bounds.min cannot reach +1e6 (min < max), nor bounds.max -1e6.
+      if ((c.key == "bounds.min" && end > 0) || (c.key == "bounds.max" && end < 0)) continue;
+      const std::string file = with_number(c.file, number_json(end));
+      EXPECT_NO_THROW(parse_params(file, "test.json")) << file;
+    }
+}
+
+TEST(Ranges, NumbersOutsideTheRangeNameTheKeyAndTheRange) {
+  for (const RangeCase& c : range_cases()) {
+    std::vector<std::string> outside = {"1e400", "-1e400"};
+    if (!c.below.empty()) outside.push_back(c.below);
+    if (!c.above.empty()) outside.push_back(c.above);
+    for (const std::string& number : outside) {
+      const std::string file = with_number(c.file, number);
+      const std::string msg = parse_error(file);
+      EXPECT_NE(msg.find("'" + c.key + "'"), std::string::npos) << file << ": " << msg;
+      EXPECT_NE(msg.find(to_string(c.range)), std::string::npos) << file << ": " << msg;
+    }
+    // NaN and Infinity are not JSON: the file is refused as such, naming line and column.
+    for (const char* number : {"NaN", "Infinity"}) {
+      const std::string msg = parse_error(with_number(c.file, number));
+      EXPECT_NE(msg.find("not valid JSON"), std::string::npos) << c.key << ": " << msg;
+    }
+  }
+}
+
+TEST(Ranges, ValidateRefusesNonFiniteValuesNamingTheFieldAndTheRange) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const double inf = std::numeric_limits<double>::infinity();
+  const std::vector<std::pair<std::string, std::function<void(Params&, double)>>> fields = {
+      {"bailout", [](Params& p, double v) { p.bailout = v; }},
+      {"bounds.min", [](Params& p, double v) { p.bounds.min[1] = v; }},
+      {"bounds.max", [](Params& p, double v) { p.bounds.max[2] = v; }},
+      {"slice.fixed", [](Params& p, double v) { p.slice.fixed = v; }},
+      {"start", [](Params& p, double v) { p.start.z = v; }},
+      {"constants.c",
+       [](Params& p, double v) {
+         p.set_constant("c", Quat{0, v, 0, 0});
+       }},
+      {"mesh.clip",
+       [](Params& p, double v) {
+         p.mesh.clip.push_back({{v, 0, 1}, 0});
+       }},
+      {"mesh.max_error", [](Params& p, double v) { p.mesh.max_error = v; }},
+      {"mesh.min_component", [](Params& p, double v) { p.mesh.min_component = v; }},
+      {"print.size_mm", [](Params& p, double v) { p.print.size_mm = v; }},
+      {"print.min_thickness_mm", [](Params& p, double v) { p.print.min_thickness_mm = v; }},
+  };
+  for (const auto& [key, set] : fields)
+    for (double v : {nan, inf, -inf}) {
+      Params p;
+      set(p, v);
+      const std::string msg = validate_error(p);
+      EXPECT_NE(msg.find("'" + key + "'"), std::string::npos) << key << " = " << v << ": " << msg;
+      EXPECT_NE(msg.find(" in "), std::string::npos) << key << " = " << v << ": " << msg;
+    }
+  Params p;
+  p.slice.general = Slice::General{{}, {Quat{nan, 0, 0, 0}, Quat{0, 1, 0, 0}, Quat{0, 0, 1, 0}}};
+  EXPECT_NE(validate_error(p).find("slice"), std::string::npos);
 }
 
 }  // namespace

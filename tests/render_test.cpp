@@ -18,6 +18,9 @@
 
 #include "qjulia/base/error.h"
 #include "qjulia/io/mesh_io.h"
+#include "qjulia/render/contact_sheet.h"
+#include "qjulia/render/plot.h"
+#include "qjulia/render/text.h"
 #include "render_args.h"
 #include "test_meshes.h"
 
@@ -149,6 +152,28 @@ TEST(Render, SameInputGivesSameBytesWhateverTheThreadCount) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
     EXPECT_EQ(render(sphere, o).rgb, a.rgb) << threads << " threads";
   }
+}
+
+TEST(Render, WithoutNormalsItShadesWithTheAreaWeightedNormalsOfBase) {
+  TriMesh bumpy = fixtures::noisy_sphere(3);
+  bumpy.normals.clear();
+  RenderOptions o;
+  o.width = o.height = 160;
+  o.rotate_deg = {-25, -35, 0};
+  const Image computed = render(bumpy, o);
+  compute_normals(bumpy);  // base's one normals routine
+  EXPECT_EQ(render(bumpy, o).rgb, computed.rgb);
+}
+
+TEST(Render, ACancelledTokenStopsTheRender) {
+  CancelToken cancel;
+  cancel.request();
+  RenderOptions o;
+  o.width = o.height = 64;
+  o.cancel = &cancel;
+  EXPECT_THROW(render(icosphere(2), o), Cancelled);
+  cancel.reset();
+  EXPECT_NO_THROW(render(icosphere(2), o));
 }
 
 TEST(Render, VertexColoursAreUsedUnlessDisabled) {
@@ -312,7 +337,8 @@ TEST(Png, FailuresThrowAndLeaveNothing) {
   im.width = 2;
   im.height = 2;
   im.rgb.resize(12, 0);
-  EXPECT_THROW(write_png("/nonexistent-dir/x.png", im), std::runtime_error);
+  // A directory that does not exist is bad input (the atomic writer cannot create its file).
+  EXPECT_THROW(write_png("/nonexistent-dir/x.png", im), InvalidInput);
   im.rgb.resize(5);
   EXPECT_THROW(write_png("/tmp/never.png", im), InvalidInput);
   EXPECT_THROW(read_png("/nonexistent-dir/x.png"), InvalidInput);
@@ -343,6 +369,67 @@ TEST(ContactSheet, LaysOutCellsWithCaptions) {
   EXPECT_EQ(pixel(sheet, 28 + 14, 29 + 17)[1], 255);  // no caption under the empty slot
   EXPECT_THROW(contact_sheet({{red, "a"}}, 0), InvalidInput);
   EXPECT_EQ(contact_sheet({}, 3).width, 0);
+}
+
+TEST(ContactSheet, CentresAShortLastRowWhenAsked) {
+  Image red = make_image(20, 10, {255, 0, 0});
+  ContactSheetOptions o;
+  o.padding = 4;
+  o.center_last_row = true;
+  // Three columns of 28 pixels; the last row's one cell starts one cell width to the right.
+  const Image sheet = contact_sheet({{red, ""}, {red, ""}, {red, ""}, {red, ""}}, 3, o);
+  ASSERT_EQ(sheet.width, 84);
+  ASSERT_EQ(sheet.height, 2 * 18);
+  EXPECT_EQ(pixel(sheet, 4, 18 + 4)[1], 255) << "the left slot of the last row stays empty";
+  EXPECT_EQ(pixel(sheet, 28 + 4, 18 + 4)[1], 0) << "the one cell is centred";
+  EXPECT_EQ(pixel(sheet, 28 + 4, 18 + 4)[0], 255);
+  o.center_last_row = false;
+  EXPECT_EQ(pixel(contact_sheet({{red, ""}, {red, ""}, {red, ""}, {red, ""}}, 3, o), 4, 22)[1], 0);
+}
+
+TEST(Image, FillAndBlitAreClippedToTheImage) {
+  Image im = make_image(4, 3, {0, 0, 0});
+  fill_rect(im, -5, -5, 2, 1, {9, 9, 9});
+  EXPECT_EQ(pixel(im, 0, 0)[0], 9);
+  EXPECT_EQ(pixel(im, 1, 0)[0], 9);
+  EXPECT_EQ(pixel(im, 2, 0)[0], 0);
+  EXPECT_EQ(pixel(im, 0, 1)[0], 0);
+  blit(im, make_image(3, 3, {7, 7, 7}), 2, 2);  // only (2, 2) and (3, 2) land inside
+  EXPECT_EQ(pixel(im, 2, 2)[0], 7);
+  EXPECT_EQ(pixel(im, 3, 2)[0], 7);
+  EXPECT_EQ(pixel(im, 1, 2)[0], 0);
+  EXPECT_EQ(make_image(0, 0, {1, 2, 3}).rgb.size(), 0u);
+  EXPECT_THROW(make_image(-1, 2, {0, 0, 0}), InvalidInput);
+}
+
+TEST(Plot, SeriesAreDrawnInTheirColoursOnLogAxes) {
+  PlotOptions o;
+  o.title = "Distances";
+  o.x_label = "iterations";
+  o.reference = 1;
+  o.reference_label = "one voxel";
+  const Rgb red{210, 30, 30}, blue{30, 80, 210};
+  const double nan = std::nan("");
+  const Image im =
+      log_plot({1, 2, 4}, {{"a", red, {1e-2, 1e-1, 1e-1}}, {"b", blue, {nan, nan, nan}}}, o);
+  ASSERT_EQ(im.width, 900);
+  ASSERT_EQ(im.height, 560);
+  // y spans the decades 1e-2..1 (the reference is 1): x = 2 is midway on the log2 axis, 0.1
+  // midway on the log10 one (plot area x 90..870, y 50..490).
+  const auto* mid = pixel(im, 480, 270);
+  EXPECT_EQ((Rgb{mid[0], mid[1], mid[2]}), red);
+  std::size_t blue_pixels = 0, red_pixels = 0;
+  for (int y = 0; y < im.height; ++y)
+    for (int x = 0; x < im.width; ++x) {
+      const auto* p = pixel(im, x, y);
+      blue_pixels += Rgb{p[0], p[1], p[2]} == blue;
+      red_pixels += Rgb{p[0], p[1], p[2]} == red;
+    }
+  EXPECT_GT(red_pixels, 1000u);
+  EXPECT_EQ(blue_pixels, 28u * 5) << "only the legend swatch of a series without points";
+  EXPECT_THROW(log_plot({1, 2}, {{"a", red, {1}}}), InvalidInput);
+  EXPECT_THROW(log_plot({2, 1}, {}), InvalidInput);
+  EXPECT_THROW(log_plot({}, {}), InvalidInput);
 }
 
 TEST(Text, GlyphsAreDrawnAndLongCaptionsCut) {

@@ -1,11 +1,14 @@
 #include "cli.h"
 
-#include <cerrno>
+#include <tbb/global_control.h>
+#include <tbb/info.h>
+
+#include <cctype>
 #include <charconv>
-#include <cmath>
 #include <cstdlib>
 
 #include "qjulia/base/error.h"
+#include "qjulia/base/memory.h"
 
 namespace qjulia::cli {
 
@@ -67,31 +70,48 @@ ParsedArgs parse_args(const std::vector<std::string>& tokens, const std::vector<
   return out;
 }
 
-double parse_double(const std::string& text, const std::string& what) {
+namespace {
+
+[[noreturn]] void out_of_range(const std::string& what, const char* kind, const ValueRange& range,
+                               const std::string& text) {
+  throw InvalidInput(what + ": expected " + kind + " in " + to_string(range) + ", not '" + text +
+                     "'");
+}
+
+// strtod over all of `text` (no leading blanks); nullopt when it is not a number.
+std::optional<double> to_double(const std::string& text) {
+  if (text.empty() || std::isspace(static_cast<unsigned char>(text[0]))) return std::nullopt;
   const char* begin = text.c_str();
   char* end = nullptr;
-  errno = 0;
-  const double d = std::strtod(begin, &end);
-  if (text.empty() || end != begin + text.size() || errno == ERANGE || !std::isfinite(d))
-    throw InvalidInput(what + ": expected a number, not '" + text + "'");
+  const double d = std::strtod(begin, &end);  // 1e400 gives inf, which no range holds
+  if (end != begin + text.size()) return std::nullopt;
   return d;
 }
 
-long long parse_int(const std::string& text, const std::string& what) {
+}  // namespace
+
+double parse_double(const std::string& text, const std::string& what, const ValueRange& range) {
+  const auto d = to_double(text);
+  if (!d || !range.contains(*d)) out_of_range(what, "a number", range, text);
+  return *d;
+}
+
+long long parse_int(const std::string& text, const std::string& what, const ValueRange& range) {
   long long v = 0;
   const auto [ptr, ec] = std::from_chars(text.data(), text.data() + text.size(), v);
-  if (text.empty() || ec != std::errc() || ptr != text.data() + text.size())
-    throw InvalidInput(what + ": expected an integer, not '" + text + "'");
+  if (text.empty() || ec != std::errc() || ptr != text.data() + text.size() ||
+      !range.contains(static_cast<double>(v)))
+    out_of_range(what, "an integer", range, text);
   return v;
 }
 
 std::vector<double> parse_doubles(const std::string& text, std::size_t count,
-                                  const std::string& what) {
+                                  const std::string& what, const ValueRange& range) {
   std::vector<double> out;
   std::size_t start = 0;
   while (true) {
     const auto comma = text.find(',', start);
-    out.push_back(parse_double(text.substr(start, comma - start), what));
+    out.push_back(parse_double(text.substr(start, comma - start), what, range));
     if (comma == std::string::npos) break;
     start = comma + 1;
   }
@@ -117,9 +137,24 @@ double parse_length_mm(const std::string& text, const std::string& what) {
     number.resize(number.size() - 1);
     factor = 1000.0;
   }
-  const double v = parse_double(number, what) * factor;
-  if (!(v > 0)) throw InvalidInput(what + ": must be a positive length, not '" + text + "'");
-  return v;
+  const auto v = to_double(number);
+  if (!v || !kLengthMmRange.contains(*v * factor))
+    throw InvalidInput(what + ": expected a length in " + to_string(kLengthMmRange) +
+                       " mm (80, 80mm, 8cm, 0.08m), not '" + text + "'");
+  return *v * factor;
+}
+
+ThreadLimit::ThreadLimit(const ParsedArgs& args) : threads_(tbb::info::default_concurrency()) {
+  if (auto t = args.get("threads")) {
+    threads_ = static_cast<int>(parse_int(*t, "--threads", kThreadsRange));
+    control_ = std::make_shared<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                     static_cast<std::size_t>(threads_));
+  }
+}
+
+std::optional<std::size_t> max_memory_from_args(const ParsedArgs& args) {
+  if (auto v = args.get("max-memory")) return parse_memory_size(*v, "--max-memory");
+  return std::nullopt;
 }
 
 std::vector<OptionSpec> param_option_specs() {
@@ -141,7 +176,8 @@ Params params_from_args(const ParsedArgs& args, const std::string& params_file) 
     const auto eq = c.find('=');
     if (eq == std::string::npos || eq == 0)
       throw InvalidInput("--const: expected NAME=w,x,y,z (or NAME=real), not '" + c + "'");
-    const auto values = parse_doubles(c.substr(eq + 1), 0, "--const " + c.substr(0, eq));
+    const auto values =
+        parse_doubles(c.substr(eq + 1), 0, "--const " + c.substr(0, eq), kCoordinateRange);
     if (values.size() != 1 && values.size() != 4)
       throw InvalidInput("--const: expected NAME=w,x,y,z (or NAME=real), not '" + c + "'");
     p.set_constant(c.substr(0, eq), values.size() == 1
@@ -164,19 +200,14 @@ Params params_from_args(const ParsedArgs& args, const std::string& params_file) 
     else
       throw InvalidInput("--method: expected escape or cutoff, not '" + *v + "'");
   }
-  if (auto v = args.get("iterations")) {
-    const long long n = parse_int(*v, "--iterations");
-    if (n < 1 || n > 100000) throw InvalidInput("--iterations: must be in 1..100000");
-    p.iterations = static_cast<int>(n);
-  }
-  if (auto v = args.get("bailout")) p.bailout = parse_double(*v, "--bailout");
-  if (auto v = args.get("resolution")) {
-    const long long n = parse_int(*v, "--resolution");
-    if (n < 2 || n > 4096) throw InvalidInput("--resolution: must be in 2..4096, not " + *v);
-    p.resolution = static_cast<int>(n);
-  }
+  if (auto v = args.get("iterations"))
+    p.iterations = static_cast<int>(parse_int(*v, "--iterations", kIterationsRange));
+  if (auto v = args.get("bailout")) p.bailout = parse_double(*v, "--bailout", kBailoutRange);
+  if (auto v = args.get("resolution"))
+    p.resolution = static_cast<int>(parse_int(*v, "--resolution", kResolutionRange));
   if (auto v = args.get("bounds")) {
-    const auto b = parse_doubles(*v, 6, "--bounds (xmin,ymin,zmin,xmax,ymax,zmax)");
+    const auto b =
+        parse_doubles(*v, 6, "--bounds (xmin,ymin,zmin,xmax,ymax,zmax)", kCoordinateRange);
     p.bounds.min = {b[0], b[1], b[2]};
     p.bounds.max = {b[3], b[4], b[5]};
   }
@@ -186,10 +217,10 @@ Params params_from_args(const ParsedArgs& args, const std::string& params_file) 
   }
   if (auto v = args.get("fixed")) {
     p.slice.general.reset();
-    p.slice.fixed = parse_double(*v, "--fixed");
+    p.slice.fixed = parse_double(*v, "--fixed", kCoordinateRange);
   }
   if (auto v = args.get("start")) {
-    const auto s = parse_doubles(*v, 4, "--start (w,x,y,z)");
+    const auto s = parse_doubles(*v, 4, "--start (w,x,y,z)", kCoordinateRange);
     p.start = {s[0], s[1], s[2], s[3]};
   }
   if (auto v = args.get("color")) {
@@ -202,12 +233,13 @@ Params params_from_args(const ParsedArgs& args, const std::string& params_file) 
     else
       throw InvalidInput("--color: expected iterations, basin or none, not '" + *v + "'");
   }
-  if (auto v = args.get("faces")) p.mesh.faces = parse_int(*v, "--faces");
-  if (auto v = args.get("max-error")) p.mesh.max_error = parse_double(*v, "--max-error");
+  if (auto v = args.get("faces")) p.mesh.faces = parse_int(*v, "--faces", kFacesRange);
+  if (auto v = args.get("max-error"))
+    p.mesh.max_error = parse_double(*v, "--max-error", kMaxErrorRange);
   if (auto v = args.get("min-component"))
-    p.mesh.min_component = parse_double(*v, "--min-component");
+    p.mesh.min_component = parse_double(*v, "--min-component", kMinComponentRange);
   for (const std::string& c : args.all("clip")) {
-    const auto v = parse_doubles(c, 4, "--clip (nx,ny,nz,d)");
+    const auto v = parse_doubles(c, 4, "--clip (nx,ny,nz,d)", kCoordinateRange);
     p.mesh.clip.push_back({{v[0], v[1], v[2]}, v[3]});
   }
   if (auto v = args.get("size")) p.print.size_mm = parse_length_mm(*v, "--size");

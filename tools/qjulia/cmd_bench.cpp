@@ -1,9 +1,5 @@
 // qjulia bench: speed of the pipeline on presets and resolutions.
-#include <tbb/global_control.h>
-#include <tbb/info.h>
-
 #include <cstdio>
-#include <memory>
 #include <sstream>
 
 #include "cli.h"
@@ -23,29 +19,33 @@ std::vector<std::string> split(const std::string& text) {
 
 }  // namespace
 
-int cmd_bench(const Tokens& tokens) {
-  const ParsedArgs args = parse_args(
-      tokens, {{"presets"}, {"resolutions"}, {"threads"}, {"dense", false}, {"help", false}},
-      "bench");
+int cmd_bench(const Tokens& tokens, const CancelToken& cancel) {
+  const ParsedArgs args = parse_args(tokens,
+                                     {{"presets"},
+                                      {"resolutions"},
+                                      {"threads"},
+                                      {"max-memory"},
+                                      {"dense", false},
+                                      {"help", false}},
+                                     "bench");
   if (args.has("help")) {
     std::puts(
-        "usage: qjulia bench [--presets a,b] [--resolutions 256,512] [--threads T] [--dense]\n"
+        "usage: qjulia bench [--presets a,b] [--resolutions 256,512] [--threads T]\n"
+        "                    [--max-memory SIZE] [--dense]\n"
         "Runs the pipeline (sample, extract, clean, measure; no export) and prints figures.\n"
-        "Defaults: classic-julia,newton-cubic at 256,512 on all cores.");
+        "Defaults: classic-julia,newton-cubic at 256,512 on all cores.\n"
+        "  --resolutions LIST   comma-separated, each 1..1000000\n"
+        "  --threads T          worker threads, 1..1024\n"
+        "  --max-memory SIZE    the memory a run may use (4G, 512M; at least 1M)");
     return 0;
   }
   const auto presets = split(args.get("presets").value_or("classic-julia,newton-cubic"));
   std::vector<int> resolutions;
   for (const auto& r : split(args.get("resolutions").value_or("256,512")))
-    resolutions.push_back(static_cast<int>(parse_int(r, "--resolutions")));
-  std::unique_ptr<tbb::global_control> threads;
-  int nthreads = tbb::info::default_concurrency();
-  if (auto t = args.get("threads")) {
-    nthreads = static_cast<int>(parse_int(*t, "--threads"));
-    if (nthreads < 1) throw InvalidInput("--threads: must be >= 1");
-    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                    static_cast<std::size_t>(nthreads));
-  }
+    resolutions.push_back(static_cast<int>(parse_int(r, "--resolutions", kResolutionRange)));
+  const ThreadLimit threads(args);
+  const int nthreads = threads.threads();
+  const auto max_memory = max_memory_from_args(args);
   std::printf("qjulia %s bench, %d thread(s)%s\n", version(), nthreads,
               args.has("dense") ? ", dense sampling" : "");
   std::printf("%-16s %5s %12s %8s %12s %12s %9s %9s %9s %9s %9s %8s\n", "preset", "res",
@@ -57,6 +57,8 @@ int cmd_bench(const Tokens& tokens) {
       p.resolution = res;
       PipelineOptions opts;
       opts.dense = args.has("dense");
+      opts.max_memory = max_memory;
+      opts.cancel = &cancel;
       const PipelineResult r = run_pipeline(p, opts);
       const RunStats& s = r.stats;
       auto stage = [&](const char* n) {

@@ -13,9 +13,9 @@
 #include "commands.h"
 #include "files.h"
 #include "progress_bar.h"
-#include "qjulia/mesh/compare.h"
 #include "qjulia/base/error.h"
 #include "qjulia/io/mesh_io.h"
+#include "qjulia/mesh/compare.h"
 #include "qjulia/pipeline/pipeline.h"
 
 namespace qjulia::cli {
@@ -35,7 +35,8 @@ options:
   --colored FILE    write A with its per-vertex distance to B as a colour ramp
                     (blue = 0 ... red = the largest distance; the range is in the metadata)
   --samples N       surface samples per surface: every vertex, then area-proportional random
-                    points up to N (default 1000000)
+                    points up to N, 0..100000000 (default 1000000)
+  --threads T       worker threads of meshing and comparing, 1..1024 (default: all cores)
   --quiet           no progress bar
 )";
 
@@ -108,11 +109,13 @@ Params params_of(const Source& s, const ParsedArgs& args) {
   return params_from_args(own, s.kind == Source::kParamsFile ? s.value : "");
 }
 
-TriMesh make_mesh(const Source& s, const std::optional<Params>& params, bool quiet) {
+TriMesh make_mesh(const Source& s, const std::optional<Params>& params, bool quiet,
+                  const CancelToken& cancel) {
   if (!params) return load_mesh(s.value);
   ProgressBar bar(quiet);
   PipelineOptions opts;
   opts.progress = bar.callback();
+  opts.cancel = &cancel;
   PipelineResult r = run_pipeline(*params, opts);
   bar.finish();
   return std::move(r.mesh);
@@ -164,12 +167,13 @@ void print_table(const CompareResult& r, const std::string& na, const std::strin
 
 }  // namespace
 
-int cmd_compare(const Tokens& tokens) {
+int cmd_compare(const Tokens& tokens, const CancelToken& cancel) {
   std::vector<OptionSpec> specs = param_option_specs();
   if (!find_spec(specs, "params")) specs.push_back({"params", true});
   specs.push_back({"json", true});
   specs.push_back({"colored", true});
   specs.push_back({"samples", true});
+  specs.push_back({"threads", true});
   if (!find_spec(specs, "quiet")) specs.push_back({"quiet", false});
   if (!find_spec(specs, "help")) specs.push_back({"help", false});
   const ParsedArgs args = parse_args(tokens, specs, "compare");
@@ -182,11 +186,10 @@ int cmd_compare(const Tokens& tokens) {
     throw InvalidInput("needs two surfaces (mesh files, parameter files or --preset NAME), got " +
                        std::to_string(sources.size()) + " (see 'qjulia compare --help')");
   CompareOptions opts;
-  if (auto s = args.get("samples")) {
-    const long long n = parse_int(*s, "--samples");
-    if (n < 0 || n > 100000000) throw InvalidInput("--samples must be in 0..100000000");
-    opts.samples = static_cast<std::size_t>(n);
-  }
+  opts.cancel = &cancel;
+  if (auto s = args.get("samples"))
+    opts.samples = static_cast<std::size_t>(parse_int(*s, "--samples", kSamplesRange));
+  const ThreadLimit threads(args);
   const bool quiet = args.has("quiet");
   const std::string json_path = args.get("json").value_or("");
   const std::string colored_path = args.get("colored").value_or("");
@@ -205,10 +208,10 @@ int cmd_compare(const Tokens& tokens) {
     return std::chrono::duration<double>(Clock::now() - t).count();
   };
   const auto t0 = Clock::now();
-  const TriMesh a = make_mesh(sources[0], params[0], quiet);
+  const TriMesh a = make_mesh(sources[0], params[0], quiet, cancel);
   const double time_a = since(t0);
   const auto t1 = Clock::now();
-  const TriMesh b = make_mesh(sources[1], params[1], quiet);
+  const TriMesh b = make_mesh(sources[1], params[1], quiet, cancel);
   const double time_b = since(t1);
   const auto t2 = Clock::now();
   if (a.triangles.empty()) throw InvalidInput(sources[0].label() + ": the surface is empty");
@@ -226,6 +229,7 @@ int cmd_compare(const Tokens& tokens) {
   print_table(r, sources[0].label(), sources[1].label());
   std::printf("  time                 A %.2f s (%s), B %.2f s (%s), compare %.2f s\n", time_a,
               params[0] ? "meshed" : "read", time_b, params[1] ? "meshed" : "read", time_compare);
+  throw_if_cancelled(&cancel);
   if (!json_path.empty())
     write_file_atomic(json_path, compare_to_json(r, sources[0].label(), sources[1].label()));
   if (!colored_path.empty()) {
@@ -233,6 +237,7 @@ int cmd_compare(const Tokens& tokens) {
     const double hi = r.a_to_b.max > 0 ? r.a_to_b.max : 1.0;
     colored.colors = distance_colors(r.a_vertex_distance, 0.0, hi);
     ExportOptions eo;
+    eo.cancel = &cancel;
     eo.params_json = compare_legend_json(0.0, hi, sources[0].label(), sources[1].label());
     write_mesh(colored_path, colored, eo);
   }

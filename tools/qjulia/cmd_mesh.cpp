@@ -1,8 +1,5 @@
 // qjulia mesh: the whole pipeline from parameters to a mesh file and its stats.
-#include <tbb/global_control.h>
-
 #include <cstdio>
-#include <memory>
 
 #include "cli.h"
 #include "commands.h"
@@ -23,26 +20,32 @@ constexpr const char* kHelp =
 Meshes the solid of a quaternionic Julia set. Without parameters: the Newton cubic
 (2h^3+1)/(3h^2) with the cut-off method (preset newton-cubic).
 
-parameters (override the file or preset):
+parameters (override the file or preset; each number must lie in the range shown):
   --preset NAME              start from a built-in preset (qjulia presets)
   --formula F                e.g. "h^2+c", "(2*h^3+1)/(3*h^2)", "p*h^2+q"
-  --const NAME=w,x,y,z       a quaternion constant (repeatable); NAME=real for a real one
+  --const NAME=w,x,y,z       a quaternion constant (repeatable); NAME=real for a real one;
+                             components -1000000..1000000
   --mode julia|mandelbrot    mandelbrot: the sampled point is c, h0 = --start
   --method escape|cutoff     escape: |h_k| <= R for all k; cutoff: |h_k - h_k-1| >= R for all k
-  --iterations N             N (1..100000)
-  --bailout R                R > 0
-  --resolution N             voxels along the longest side of the box (2..4096)
-  --bounds x0,y0,z0,x1,y1,z1 the sampled box
-  --axes rmn --fixed W       which quaternion components x, y, z are; the fourth is W
-  --start w,x,y,z            h0 in Mandelbrot mode
+  --iterations N             N, 1..100000
+  --bailout R                R, 1e-12..1e+12
+  --resolution N             voxels along the longest side of the box, 1..1000000 (what fits
+                             in memory is checked before sampling)
+  --bounds x0,y0,z0,x1,y1,z1 the sampled box, -1000000..1000000, x0 < x1, y0 < y1, z0 < z1
+  --axes rmn --fixed W       which quaternion components x, y, z are; the fourth is W,
+                             -1000000..1000000
+  --start w,x,y,z            h0 in Mandelbrot mode, components -1000000..1000000
 mesh:
   --color iterations|basin|none   per-vertex colours
-  --faces N, --max-error E   decimate to N faces / within distance E
-  --min-component V          drop components of volume below V (model units^3)
-  --clip nx,ny,nz,d          keep n.x <= d, closed by a flat cap (repeatable)
+  --faces N                  decimate to at most N faces, 4..1000000000
+  --max-error E              decimate within distance E (model units), 1e-09..1000000
+  --min-component V          drop components of volume below V (model units^3), 0..1e+18
+  --clip nx,ny,nz,d          keep n.x <= d, closed by a flat cap (repeatable); components
+                             -1000000..1000000, n not zero
 print:
-  --size 80mm                scale the longest side to this length (output in mm)
-  --min-thickness 0.8mm      thicken parts thinner than this
+  --size 80mm                scale the longest side to this length (output in mm),
+                             0.001..1000000 mm (mm, cm or m)
+  --min-thickness 0.8mm      thicken parts thinner than this, 0.001..1000000 mm
   --check                    count self-intersections
 run:
   -o, --output OUT           the mesh file; the format follows the extension
@@ -51,15 +54,18 @@ run:
   --preview FILE.png         a preview image of the mesh (--preview-shading, --preview-rotate,
                              ... as for qjulia render; listed below)
   --dense                    evaluate every grid point (validation)
-  --threads T                worker threads (default: all cores)
+  --threads T                worker threads of every stage, 1..1024 (default: all cores)
+  --max-memory SIZE          the memory the run may use, e.g. 4G or 512M (K, M, G, T = 2^10..
+                             2^40 bytes; at least 1M); default: what the system has free
   --quiet                    no progress bar
 )help";
 
 }  // namespace
 
-int cmd_mesh(const Tokens& tokens) {
+int cmd_mesh(const Tokens& tokens, const CancelToken& cancel) {
   auto specs = param_option_specs();
-  for (const char* name : {"output", "stats", "vdb", "preview", "threads"}) specs.push_back({name});
+  for (const char* name : {"output", "stats", "vdb", "preview", "threads", "max-memory"})
+    specs.push_back({name});
   for (const char* name : {"dense", "quiet", "help"}) specs.push_back({name, false});
   const auto preview_specs = render_option_specs("preview-");
   specs.insert(specs.end(), preview_specs.begin(), preview_specs.end());
@@ -75,25 +81,20 @@ int cmd_mesh(const Tokens& tokens) {
   if (!out) throw InvalidInput("missing -o OUT (e.g. -o julia.glb)");
   format_from_path(*out);  // an unknown extension fails before any work
   const Params params = params_from_args(args, args.positional.empty() ? "" : args.positional[0]);
-  std::unique_ptr<tbb::global_control> threads;
-  if (auto t = args.get("threads")) {
-    const long long n = parse_int(*t, "--threads");
-    if (n < 1 || n > 1024) throw InvalidInput("--threads: must be in 1..1024");
-    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                    static_cast<std::size_t>(n));
-  }
+  const ThreadLimit threads(args);
   const auto preview = args.get("preview");
   // Checked before the long run, so a bad value fails at once.
-  const RenderOptions preview_options = render_options_from_args(args, "preview-");
-  if (preview) check_render_options(preview_options);
+  RenderOptions preview_options = render_options_from_args(args, "preview-");
+  preview_options.cancel = &cancel;
 
   PipelineOptions popts;
   popts.dense = args.has("dense");
   popts.keep_grid = args.has("vdb");
+  popts.max_memory = max_memory_from_args(args);
+  popts.cancel = &cancel;
   ProgressBar bar(args.has("quiet"));
   popts.progress = bar.callback();
   PipelineResult result = run_pipeline(params, popts);
-  bar.finish();
 
   if (result.mesh.triangles.empty())
     throw InvalidInput(
@@ -105,7 +106,13 @@ int cmd_mesh(const Tokens& tokens) {
   ExportOptions eopts;
   eopts.params_json = params_json;
   eopts.unit = result.stats.unit;
+  eopts.cancel = &cancel;
+  eopts.progress = [&bar](double f) {
+    bar.update("write", f);
+    return true;
+  };
   write_mesh(*out, result.mesh, eopts);
+  bar.finish();
   for (const auto& f : output_files(*out)) written.add(f);  // .gltf comes with its .bin
   std::string sidecar;
   if (format_from_path(*out) == MeshFormat::kStl) {
@@ -128,6 +135,7 @@ int cmd_mesh(const Tokens& tokens) {
     write_file_atomic(*stats_path, stats_to_json(result.stats, params));
     written.add(*stats_path);
   }
+  throw_if_cancelled(&cancel);  // a signal during the last writes still removes every file
   written.commit();
 
   const MeshMeasure& m = result.stats.measure;

@@ -1,13 +1,10 @@
 // qjulia render: preview images of meshes, and contact sheets of several meshes or views.
-#include <tbb/global_control.h>
-
 #include <algorithm>
 #include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -17,7 +14,9 @@
 #include "commands.h"
 #include "qjulia/base/error.h"
 #include "qjulia/io/mesh_io.h"
+#include "qjulia/render/contact_sheet.h"
 #include "qjulia/render/render.h"
+#include "qjulia/render/text.h"
 #include "render_args.h"
 
 namespace qjulia::cli {
@@ -33,9 +32,9 @@ sheet with one captioned cell each; inputs ending in .png are placed in the shee
 options:
   -o, --output OUT.png      the image (written atomically)
   --view rx,ry,rz           one cell per view (rotation as --rotate); repeatable
-  --columns N               cells per row of a contact sheet (ceil(sqrt(cells)))
+  --columns N               cells per row of a contact sheet, 1..1000 (ceil(sqrt(cells)))
   --caption TEXT            caption of the next cell (the file name); repeatable
-  --threads T               worker threads (all cores)
+  --threads T               worker threads, 1..1024 (all cores)
 )";
 
 std::string lower_extension(const std::string& path) {
@@ -52,7 +51,7 @@ std::string format_view(const std::array<double, 3>& r) {
 
 }  // namespace
 
-int cmd_render(const Tokens& tokens) {
+int cmd_render(const Tokens& tokens, const CancelToken& cancel) {
   std::vector<OptionSpec> specs = render_option_specs();
   for (const char* name : {"output", "view", "columns", "caption", "threads"})
     specs.push_back({name, true});
@@ -69,21 +68,19 @@ int cmd_render(const Tokens& tokens) {
   if (!out) throw InvalidInput("-o OUT.png is required");
   if (lower_extension(*out) != ".png") throw InvalidInput("-o: '" + *out + "' must end in .png");
 
-  std::unique_ptr<tbb::global_control> threads;
-  if (auto t = args.get("threads")) {
-    const long long n = parse_int(*t, "--threads");
-    if (n < 1 || n > 1024) throw InvalidInput("--threads: must be 1..1024");
-    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                    static_cast<std::size_t>(n));
-  }
-
-  const RenderOptions base = render_options_from_args(args);
+  const ThreadLimit threads(args);
+  RenderOptions base = render_options_from_args(args);
+  base.cancel = &cancel;
   std::vector<std::array<double, 3>> views;
   for (const std::string& v : args.all("view")) {
-    const auto d = parse_doubles(v, 3, "--view");
+    const auto d = parse_doubles(v, 3, "--view", kRotationRange);
     views.push_back({d[0], d[1], d[2]});
   }
   if (views.empty()) views.push_back(base.rotate_deg);
+
+  std::optional<int> columns_option;
+  if (auto c = args.get("columns"))
+    columns_option = static_cast<int>(parse_int(*c, "--columns", {1, 1000}));
 
   for (const std::string& input : args.positional)
     if (!std::filesystem::is_regular_file(input))
@@ -116,12 +113,8 @@ int cmd_render(const Tokens& tokens) {
   if (cells.size() == 1 && !args.has("caption") && !args.has("columns")) {
     image = std::move(cells[0].first);
   } else {
-    int columns = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(cells.size()))));
-    if (auto c = args.get("columns")) {
-      const long long n = parse_int(*c, "--columns");
-      if (n < 1 || n > 1000) throw InvalidInput("--columns: must be 1..1000");
-      columns = static_cast<int>(n);
-    }
+    const int columns = columns_option.value_or(
+        static_cast<int>(std::ceil(std::sqrt(static_cast<double>(cells.size())))));
     ContactSheetOptions sheet;
     sheet.background = base.background;
     // Captions at double size when they all fit their cells, else at the font's own size.
@@ -134,6 +127,7 @@ int cmd_render(const Tokens& tokens) {
     if (luma < 128) sheet.text_color = {230, 230, 230};  // light text on a dark sheet
     image = contact_sheet(cells, columns, sheet);
   }
+  throw_if_cancelled(&cancel);  // a signal while the cells were assembled
   write_png(*out, image);
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

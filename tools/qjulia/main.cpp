@@ -1,4 +1,5 @@
 // qjulia: meshes of quaternionic Julia sets. Dispatches to the subcommands.
+#include <csignal>
 #include <cstdio>
 #include <exception>
 #include <string>
@@ -7,6 +8,7 @@
 #include "commands.h"
 #include "qjulia/base/error.h"
 #include "qjulia/pipeline/pipeline.h"
+#include "signals.h"
 
 namespace {
 
@@ -29,6 +31,8 @@ commands:
 
 int main(int argc, char** argv) {
   using namespace qjulia::cli;
+  install_signal_handlers();
+  const qjulia::CancelToken& cancel = interrupt_token();
   if (argc < 2) {
     std::fputs(kUsage, stderr);
     return 2;
@@ -36,13 +40,13 @@ int main(int argc, char** argv) {
   const std::string command = argv[1];
   const Tokens args(argv + 2, argv + argc);
   try {
-    if (command == "mesh") return cmd_mesh(args);
+    if (command == "mesh") return cmd_mesh(args, cancel);
     if (command == "presets") return cmd_presets(args);
     if (command == "params") return cmd_params(args);
-    if (command == "compare") return cmd_compare(args);
-    if (command == "render") return cmd_render(args);
-    if (command == "experiment") return cmd_experiment(args);
-    if (command == "bench") return cmd_bench(args);
+    if (command == "compare") return cmd_compare(args, cancel);
+    if (command == "render") return cmd_render(args, cancel);
+    if (command == "experiment") return cmd_experiment(args, cancel);
+    if (command == "bench") return cmd_bench(args, cancel);
     if (command == "version" || command == "--version") {
       std::printf("qjulia %s\n", qjulia::version());
       return 0;
@@ -57,6 +61,12 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "qjulia %s: %s\n", command.c_str(), e.what());
     return 2;
   } catch (const qjulia::Cancelled&) {
+    // Everything the command wrote is removed by now (its OutputFiles and AtomicFiles unwound).
+    if (const int signal = interrupting_signal()) {
+      std::fprintf(stderr, "qjulia %s: interrupted by %s; nothing written\n", command.c_str(),
+                   signal == SIGINT ? "SIGINT" : "SIGTERM");
+      return exit_code_for_signal(signal);
+    }
     std::fprintf(stderr, "qjulia %s: cancelled\n", command.c_str());
     return 1;
   } catch (const std::exception& e) {

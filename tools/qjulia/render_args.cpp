@@ -22,25 +22,32 @@ std::vector<OptionSpec> render_option_specs(const std::string& prefix) {
 
 std::string render_options_help(const std::string& prefix) {
   // {flag and value, description lines}
+  const std::string r = ", " + to_string(kRotationRange) + " degrees";
   const std::vector<std::pair<std::string, std::vector<std::string>>> rows = {
       {"shading simple|lambert|phong",
        {"flat facets | smooth diffuse | smooth diffuse + highlight (phong)"}},
       {"light x,y,z",
        {"direction towards a light in view space (x right, y up, z towards",
-        "the viewer); repeatable (-0.5,0.6,1)"}},
-      {"ambient A", {"ambient share 0..1 (0.15)"}},
-      {"specular S", {"highlight strength 0..1 (0.4)"}},
-      {"shininess E", {"Phong exponent 1..10000 (32)"}},
-      {"rotate rx,ry,rz", {"rotation about X, then Y, then Z, degrees (0,0,0)"}},
-      {"size WxH", {"image size in pixels, or N for N x N (800x800)"}},
+        "the viewer), components " + to_string(kLightComponentRange) + ", not all 0;",
+        "repeatable (-0.5,0.6,1)"}},
+      {"ambient A", {"ambient share " + to_string(kAmbientRange) + " (0.15)"}},
+      {"specular S", {"highlight strength " + to_string(kSpecularRange) + " (0.4)"}},
+      {"shininess E", {"Phong exponent " + to_string(kShininessRange) + " (32)"}},
+      {"rotate rx,ry,rz", {"rotation about X, then Y, then Z" + r + " (0,0,0)"}},
+      {"size WxH",
+       {"image size in pixels, or N for N x N, sides " + to_string(kImageSideRange) +
+        " (800x800)"}},
       {"background COLOR", {"#rrggbb, #rgb or r,g,b in 0..255 (#ffffff)"}},
       {"base-color COLOR", {"surface colour without vertex colours (#ccc7bd)"}},
       {"no-vertex-colors", {"ignore the mesh's vertex colours"}},
       {"framing box|sphere",
        {"fit the projected box (tight) or the sphere around the mesh (same",
         "scale for every rotation) (box)"}},
-      {"margin M", {"empty border, fraction of the smaller side 0..0.45 (0.05)"}},
-      {"supersample N", {"N x N samples per pixel, 1..8 (1)"}}};
+      {"margin M",
+       {"empty border, fraction of the smaller side " + to_string(kMarginRange) + " (0.05)"}},
+      {"supersample N",
+       {"N x N samples per pixel, " + to_string(kSupersampleRange) + "; size times N at most " +
+        std::to_string(kMaxSamplesPerSide) + " (1)"}}};
   const std::size_t width = 28;  // the column of the descriptions in every --help
   std::string out;
   for (const auto& [flag, lines] : rows) {
@@ -59,10 +66,12 @@ std::string render_options_help(const std::string& prefix) {
 std::pair<int, int> parse_image_size(const std::string& text, const std::string& what) {
   const auto x = text.find_first_of("xX");
   auto side = [&](const std::string& s) {
-    const long long v = parse_int(s, what);
-    if (v < 1 || v > 16384)
-      throw InvalidInput(what + ": '" + text + "' must be WxH or N with sides in 1..16384");
-    return static_cast<int>(v);
+    try {
+      return static_cast<int>(parse_int(s, what, kImageSideRange));
+    } catch (const InvalidInput&) {
+      throw InvalidInput(what + ": '" + text + "' must be WxH or N with sides in " +
+                         to_string(kImageSideRange));
+    }
   };
   if (x == std::string::npos) {
     const int n = side(text);
@@ -89,13 +98,13 @@ std::array<std::uint8_t, 3> parse_color(const std::string& text, const std::stri
   }
   std::vector<double> v;
   try {
-    v = parse_doubles(text, 3, what);
+    v = parse_doubles(text, 3, what, {0, 255});
   } catch (const InvalidInput&) {
     throw InvalidInput(bad);
   }
   std::array<std::uint8_t, 3> rgb{};
   for (int k = 0; k < 3; ++k) {
-    if (!(v[k] >= 0 && v[k] <= 255) || v[k] != std::floor(v[k])) throw InvalidInput(bad);
+    if (v[k] != std::floor(v[k])) throw InvalidInput(bad);
     rgb[k] = static_cast<std::uint8_t>(v[k]);
   }
   return rgb;
@@ -117,14 +126,14 @@ RenderOptions render_options_from_args(const ParsedArgs& args, const std::string
     }
   }
   for (const std::string& l : args.all(prefix + "light")) {
-    const auto v = parse_doubles(l, 3, flag("light"));
+    const auto v = parse_doubles(l, 3, flag("light"), kLightComponentRange);
     o.lights.push_back({v[0], v[1], v[2]});
   }
-  if (auto s = get("ambient")) o.ambient = parse_double(*s, flag("ambient"));
-  if (auto s = get("specular")) o.specular = parse_double(*s, flag("specular"));
-  if (auto s = get("shininess")) o.shininess = parse_double(*s, flag("shininess"));
+  if (auto s = get("ambient")) o.ambient = parse_double(*s, flag("ambient"), kAmbientRange);
+  if (auto s = get("specular")) o.specular = parse_double(*s, flag("specular"), kSpecularRange);
+  if (auto s = get("shininess")) o.shininess = parse_double(*s, flag("shininess"), kShininessRange);
   if (auto s = get("rotate")) {
-    const auto v = parse_doubles(*s, 3, flag("rotate"));
+    const auto v = parse_doubles(*s, 3, flag("rotate"), kRotationRange);
     o.rotate_deg = {v[0], v[1], v[2]};
   }
   if (auto s = get("size")) std::tie(o.width, o.height) = parse_image_size(*s, flag("size"));
@@ -143,11 +152,9 @@ RenderOptions render_options_from_args(const ParsedArgs& args, const std::string
       throw InvalidInput(flag("framing") + ": '" + *s + "' is not box or sphere");
     }
   }
-  if (auto s = get("margin")) o.margin = parse_double(*s, flag("margin"));
+  if (auto s = get("margin")) o.margin = parse_double(*s, flag("margin"), kMarginRange);
   if (auto s = get("supersample")) {
-    const long long n = parse_int(*s, flag("supersample"));
-    if (n < 1 || n > 8) throw InvalidInput(flag("supersample") + ": must be 1..8");
-    o.supersample = static_cast<int>(n);
+    o.supersample = static_cast<int>(parse_int(*s, flag("supersample"), kSupersampleRange));
   }
   try {
     check_render_options(o);

@@ -19,13 +19,14 @@ namespace qjulia::cli {
 std::vector<OptionSpec> render_option_specs(const std::string& prefix = "");
 
 /// RenderOptions from the options of render_option_specs(prefix); defaults where absent.
-/// Ranges are checked by render() itself. @throws InvalidInput naming the flag.
+/// Every value is checked against its range (render.h) before any work starts.
+/// @throws InvalidInput naming the flag and the range.
 RenderOptions render_options_from_args(const ParsedArgs& args, const std::string& prefix = "");
 
 /// Help lines describing render_option_specs(prefix), two-space indented.
 std::string render_options_help(const std::string& prefix = "");
 
-/// "WxH" or "N" (square), each 1..16384. @throws InvalidInput naming `what`.
+/// "WxH" or "N" (square), sides in kImageSideRange. @throws InvalidInput naming `what`.
 std::pair<int, int> parse_image_size(const std::string& text, const std::string& what);
 
 /// "#rrggbb", "#rgb" or "r,g,b" with integers 0..255. @throws InvalidInput naming `what`.

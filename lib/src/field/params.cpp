@@ -1,6 +1,7 @@
 #include "qjulia/field/params.h"
 
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -19,6 +20,24 @@ using nlohmann::json;
   throw InvalidInput(source + ": " + what);
 }
 
+std::string number_text(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+// `value` must lie in `range`: "'iterations' must be in 1..100000, not 0".
+void check_range(double value, const ValueRange& range, const std::string& source,
+                 const std::string& key) {
+  if (!range.contains(value))
+    fail(source, "'" + key + "' must be in " + to_string(range) + ", not " + number_text(value));
+}
+
+void check_range(const Quat& q, const ValueRange& range, const std::string& source,
+                 const std::string& key) {
+  for (double c : {q.w, q.x, q.y, q.z}) check_range(c, range, source, key);
+}
+
 // Every key of `object` must be one of `allowed`.
 void check_keys(const json& object, std::initializer_list<const char*> allowed,
                 const std::string& source, const std::string& where) {
@@ -35,16 +54,17 @@ void check_keys(const json& object, std::initializer_list<const char*> allowed,
 
 double get_number(const json& v, const std::string& source, const std::string& key) {
   if (!v.is_number()) fail(source, "'" + key + "' must be a number");
-  const double d = v.get<double>();
-  if (!std::isfinite(d)) fail(source, "'" + key + "' must be finite");
-  return d;
+  return v.get<double>();  // the range is validate()'s to check
 }
 
-long long get_integer(const json& v, const std::string& source, const std::string& key) {
-  if (!v.is_number_integer() &&
-      !(v.is_number_float() && std::floor(v.get<double>()) == v.get<double>()))
-    fail(source, "'" + key + "' must be an integer");
-  return v.get<long long>();
+long long get_integer(const json& v, const std::string& source, const std::string& key,
+                      const ValueRange& range) {
+  const std::string expected = "'" + key + "' must be an integer in " + to_string(range);
+  if (!v.is_number()) fail(source, expected);
+  const double d = v.get<double>();
+  if (!range.contains(d)) fail(source, expected + ", not " + number_text(d));
+  if (v.is_number_float() && std::floor(d) != d) fail(source, expected + ", not " + number_text(d));
+  return v.is_number_float() ? static_cast<long long>(d) : v.get<long long>();
 }
 
 std::string get_string(const json& v, const std::string& source, const std::string& key) {
@@ -113,6 +133,18 @@ Quat axis_quat(char axis) {
 
 double dot4(const Quat& a, const Quat& b) { return a.w * b.w + a.x * b.x + a.y * b.y + a.z * b.z; }
 
+// The range of a parameter-file key ("bailout", "mesh.faces", "constants.c", ...).
+const ValueRange& range_of(const std::string& key) {
+  static const std::pair<const char*, const ValueRange*> kRanges[] = {
+      {"iterations", &kIterationsRange},   {"bailout", &kBailoutRange},
+      {"resolution", &kResolutionRange},   {"mesh.faces", &kFacesRange},
+      {"mesh.max_error", &kMaxErrorRange}, {"mesh.min_component", &kMinComponentRange},
+      {"print.size_mm", &kLengthMmRange},  {"print.min_thickness_mm", &kLengthMmRange}};
+  for (const auto& [name, range] : kRanges)
+    if (key == name) return *range;
+  return kCoordinateRange;  // bounds, slice, constants, start and clip planes
+}
+
 }  // namespace
 
 Slice::General Slice::resolved() const {
@@ -149,17 +181,18 @@ const char* to_string(ColorMode m) {
   return m == ColorMode::kNone ? "none" : m == ColorMode::kIterations ? "iterations" : "basin";
 }
 
+std::string to_string(const ValueRange& range) {
+  return number_text(range.min) + ".." + number_text(range.max);
+}
+
 void validate(const Params& p) {
   const std::string src = "parameters";
-  if (p.iterations < 1 || p.iterations > 100000)
-    fail(src, "'iterations' must be in 1..100000, not " + std::to_string(p.iterations));
-  if (!(p.bailout > 0) || !std::isfinite(p.bailout))
-    fail(src, "'bailout' must be a finite number > 0");
-  if (p.resolution < 2 || p.resolution > 4096)
-    fail(src, "'resolution' must be in 2..4096, not " + std::to_string(p.resolution));
+  check_range(p.iterations, kIterationsRange, src, "iterations");
+  check_range(p.bailout, kBailoutRange, src, "bailout");
+  check_range(p.resolution, kResolutionRange, src, "resolution");
   for (int a = 0; a < 3; ++a) {
-    if (!std::isfinite(p.bounds.min[a]) || !std::isfinite(p.bounds.max[a]))
-      fail(src, "'bounds' must be finite");
+    check_range(p.bounds.min[a], kCoordinateRange, src, "bounds.min");
+    check_range(p.bounds.max[a], kCoordinateRange, src, "bounds.max");
     if (!(p.bounds.min[a] < p.bounds.max[a]))
       fail(src, std::string("'bounds' min must be < max on every axis (axis ") + "xyz"[a] + ": " +
                     std::to_string(p.bounds.min[a]) + " >= " + std::to_string(p.bounds.max[a]) +
@@ -178,10 +211,10 @@ void validate(const Params& p) {
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b) {
         const double d = dot4(g.directions[a], g.directions[b]);
-        if (std::abs(d - (a == b ? 1.0 : 0.0)) > 1e-9)
+        if (!(std::abs(d - (a == b ? 1.0 : 0.0)) <= 1e-9))  // NaN fails too
           fail(src, "'slice.directions' must be three orthonormal 4D vectors");
       }
-    if (!is_finite(g.origin)) fail(src, "'slice.origin' must be finite");
+    check_range(g.origin, kCoordinateRange, src, "slice.origin");
   } else {
     const std::string& ax = p.slice.axes;
     if (ax.size() != 3 || ax.find_first_not_of("rmnp") != std::string::npos || ax[0] == ax[1] ||
@@ -190,41 +223,55 @@ void validate(const Params& p) {
            "'slice.axes' must be three distinct letters of \"rmnp\" (r=real, m=i, n=j, "
            "p=k), not \"" +
                ax + "\"");
-    if (!std::isfinite(p.slice.fixed)) fail(src, "'slice.fixed' must be finite");
+    check_range(p.slice.fixed, kCoordinateRange, src, "slice.fixed");
   }
   std::vector<std::string> names;
   for (const auto& [name, value] : p.constants) {
     if (!is_identifier(name)) fail(src, "constant name '" + name + "' is not an identifier");
     if (name == "h" || name == "i" || name == "j" || name == "k")
       fail(src, "constant name '" + name + "' is reserved (h is the variable, i j k the units)");
-    if (!is_finite(value)) fail(src, "constant '" + name + "' must be finite");
+    check_range(value, kCoordinateRange, src, "constants." + name);
     names.push_back(name);
   }
   if (p.mode == Mode::kMandelbrot && !p.constant("c")) names.push_back("c");
-  if (!is_finite(p.start)) fail(src, "'start' must be finite");
+  check_range(p.start, kCoordinateRange, src, "start");
   Formula::compile(p.formula, names);  // throws InvalidInput naming the column
   for (const auto& c : p.mesh.clip) {
-    const double n = std::sqrt(c.normal[0] * c.normal[0] + c.normal[1] * c.normal[1] +
-                               c.normal[2] * c.normal[2]);
-    if (!(n > 0) || !std::isfinite(n) || !std::isfinite(c.d))
-      fail(src, "'mesh.clip' planes need a finite non-zero normal and a finite d");
+    for (double v : {c.normal[0], c.normal[1], c.normal[2], c.d})
+      check_range(v, kCoordinateRange, src, "mesh.clip");
+    if (c.normal[0] == 0 && c.normal[1] == 0 && c.normal[2] == 0)
+      fail(src, "'mesh.clip' planes need a non-zero normal");
   }
-  if (p.mesh.faces && *p.mesh.faces < 4) fail(src, "'mesh.faces' must be at least 4");
-  if (p.mesh.max_error && !(*p.mesh.max_error > 0)) fail(src, "'mesh.max_error' must be > 0");
-  if (p.mesh.min_component && !(*p.mesh.min_component >= 0))
-    fail(src, "'mesh.min_component' must be >= 0");
-  if (p.print.size_mm && !(*p.print.size_mm > 0)) fail(src, "'print.size_mm' must be > 0");
-  if (p.print.min_thickness_mm && !(*p.print.min_thickness_mm > 0))
-    fail(src, "'print.min_thickness_mm' must be > 0");
+  if (p.mesh.faces) check_range(static_cast<double>(*p.mesh.faces), kFacesRange, src, "mesh.faces");
+  if (p.mesh.max_error) check_range(*p.mesh.max_error, kMaxErrorRange, src, "mesh.max_error");
+  if (p.mesh.min_component)
+    check_range(*p.mesh.min_component, kMinComponentRange, src, "mesh.min_component");
+  if (p.print.size_mm) check_range(*p.print.size_mm, kLengthMmRange, src, "print.size_mm");
+  if (p.print.min_thickness_mm)
+    check_range(*p.print.min_thickness_mm, kLengthMmRange, src, "print.min_thickness_mm");
 }
 
 Params parse_params(const std::string& json_text, const std::string& source) {
   json j;
+  std::string key;  // the key whose value is being read, for the message of a number overflow
   try {
-    j = json::parse(json_text);
+    std::vector<std::string> path;
+    j = json::parse(json_text, [&](int depth, json::parse_event_t event, json& parsed) {
+      if (event == json::parse_event_t::key) {
+        path.resize(depth > 0 ? depth - 1 : 0);
+        path.push_back(parsed.get<std::string>());
+        key.clear();
+        for (const auto& k : path) key += (key.empty() ? "" : ".") + k;
+      }
+      return true;
+    });
   } catch (const json::parse_error& e) {
     // nlohmann's message carries line and column.
     fail(source, std::string("not valid JSON: ") + e.what());
+  } catch (const json::out_of_range&) {
+    // A number beyond double's range (1e400) stops the parser itself.
+    fail(source, "'" + key + "' must be in " + to_string(range_of(key)) +
+                     ", not a number beyond the range of a double");
   }
   if (!j.is_object()) fail(source, "a parameter file is a JSON object");
   check_keys(j,
@@ -244,11 +291,9 @@ Params parse_params(const std::string& json_text, const std::string& source) {
   if (j.contains("mode")) p.mode = parse_mode(get_string(j["mode"], source, "mode"), source);
   if (j.contains("method"))
     p.method = parse_method(get_string(j["method"], source, "method"), source);
-  if (j.contains("iterations")) {
-    const long long n = get_integer(j["iterations"], source, "iterations");
-    if (n < 1 || n > 100000) fail(source, "'iterations' must be in 1..100000");
-    p.iterations = static_cast<int>(n);
-  }
+  if (j.contains("iterations"))
+    p.iterations =
+        static_cast<int>(get_integer(j["iterations"], source, "iterations", kIterationsRange));
   if (j.contains("bailout")) p.bailout = get_number(j["bailout"], source, "bailout");
   if (j.contains("start")) p.start = get_quat(j["start"], source, "start");
   if (j.contains("slice")) {
@@ -276,11 +321,9 @@ Params parse_params(const std::string& json_text, const std::string& source) {
     if (b.contains("min")) p.bounds.min = get_array<3>(b["min"], source, "bounds.min");
     if (b.contains("max")) p.bounds.max = get_array<3>(b["max"], source, "bounds.max");
   }
-  if (j.contains("resolution")) {
-    const long long r = get_integer(j["resolution"], source, "resolution");
-    if (r < 2 || r > 4096) fail(source, "'resolution' must be in 2..4096");
-    p.resolution = static_cast<int>(r);
-  }
+  if (j.contains("resolution"))
+    p.resolution =
+        static_cast<int>(get_integer(j["resolution"], source, "resolution", kResolutionRange));
   if (j.contains("mesh")) {
     const json& m = j["mesh"];
     if (!m.is_object()) fail(source, "'mesh' must be an object");
@@ -288,7 +331,7 @@ Params parse_params(const std::string& json_text, const std::string& source) {
     if (m.contains("color"))
       p.mesh.color = parse_color(get_string(m["color"], source, "mesh.color"), source);
     if (m.contains("faces") && !m["faces"].is_null())
-      p.mesh.faces = get_integer(m["faces"], source, "mesh.faces");
+      p.mesh.faces = get_integer(m["faces"], source, "mesh.faces", kFacesRange);
     if (m.contains("max_error") && !m["max_error"].is_null())
       p.mesh.max_error = get_number(m["max_error"], source, "mesh.max_error");
     if (m.contains("min_component") && !m["min_component"].is_null())

@@ -1,5 +1,5 @@
 #pragma once
-// The embedded 5x7 bitmap font (with descenders) of the contact-sheet captions (drawn for qjulia).
+// The embedded 5x7 bitmap font (with descenders): the one font of every caption and chart.
 #include <cstdint>
 
 namespace qjulia::detail {

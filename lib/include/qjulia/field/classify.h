@@ -1,6 +1,6 @@
 #pragma once
 /// @file classify.h
-/// The exact per-point classifier and the continuous field of DESIGN.md.
+/// The exact per-point classifier and the continuous field of docs/design.md.
 #include <array>
 #include <cstdint>
 #include <memory>

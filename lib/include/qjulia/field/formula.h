@@ -72,7 +72,7 @@ class Formula {
   /// with a non-zero imaginary part), every literal-only part folds to a real value (not
   /// sqrt(-1) or log(-2)) and every used constant has a zero imaginary part. Then
   /// f(u h u^-1) = u f(h) u^-1 for unit quaternions u: f commutes with rotations of the
-  /// imaginary part (the rotation-symmetry facts of DESIGN.md), except where log, sqrt or a
+  /// imaginary part (the rotation-symmetry facts of docs/design.md), except where log, sqrt or a
   /// real power meets a negative real value, where the axis i is taken.
   /// @param[in] constants  constant_names().size() quaternions, as for eval()
   bool has_real_coefficients(const Quat* constants) const;

@@ -1,7 +1,7 @@
 #pragma once
 /// @file params.h
 /// The parameter set of a run: the map, the method, the slice, the box, the resolution, and the
-/// options of the later stages. Read from / written to the JSON parameter file of DESIGN.md.
+/// options of the later stages. Read from / written to the JSON parameter file of docs/design.md.
 #include <array>
 #include <optional>
 #include <string>
@@ -12,7 +12,30 @@
 
 namespace qjulia {
 
-/// How a point is classified (DESIGN.md, "The mathematics, exactly").
+/// An inclusive range of accepted values.
+struct ValueRange {
+  double min, max;
+  /// False for NaN.
+  constexpr bool contains(double v) const { return v >= min && v <= max; }
+};
+
+/// "1..100000", "1e-12..1e+12": a range as messages and --help show it.
+std::string to_string(const ValueRange& range);
+
+/// The accepted ranges of the numeric parameters. validate() enforces them; the CLI quotes them
+/// in --help and in its messages.
+inline constexpr ValueRange kIterationsRange{1, 100000};
+inline constexpr ValueRange kBailoutRange{1e-12, 1e12};
+/// Voxels along the longest side. What fits in memory is the memory estimate's to decide.
+inline constexpr ValueRange kResolutionRange{1, 1000000};
+/// Every component of bounds, slice.fixed, slice.origin, constants, start and clip planes.
+inline constexpr ValueRange kCoordinateRange{-1e6, 1e6};
+inline constexpr ValueRange kFacesRange{4, 1e9};
+inline constexpr ValueRange kMaxErrorRange{1e-9, 1e6};    ///< model units
+inline constexpr ValueRange kMinComponentRange{0, 1e18};  ///< model units^3
+inline constexpr ValueRange kLengthMmRange{0.001, 1e6};   ///< print.size_mm, min_thickness_mm
+
+/// How a point is classified (docs/design.md, section 1).
 enum class Method {
   kEscape,  ///< in the solid when |h_k| <= R for every k in 0..N
   kCutoff,  ///< in the solid when |h_k - h_(k-1)| >= R for every k in 1..N
@@ -82,12 +105,12 @@ struct Params {
   std::vector<std::pair<std::string, Quat>> constants;
   Mode mode = Mode::kJulia;
   Method method = Method::kCutoff;
-  int iterations = 12;    ///< N, 1..100000
-  double bailout = 0.01;  ///< R > 0 (bailout radius or cut-off rate)
+  int iterations = 12;    ///< N, kIterationsRange
+  double bailout = 0.01;  ///< R, kBailoutRange (bailout radius or cut-off rate)
   Quat start;             ///< h0 in Mandelbrot mode
   Slice slice;
   Bounds bounds;
-  int resolution = 256;  ///< voxels along the longest side of the box, 1..4096
+  int resolution = 256;  ///< voxels along the longest side of the box, kResolutionRange
   MeshParams mesh;
   PrintParams print;
 
@@ -97,8 +120,8 @@ struct Params {
   void set_constant(const std::string& name, const Quat& value);
 };
 
-/// Checks ranges and consistency (formula compiles, bounds min < max, resolution, axes, ...).
-/// @throws InvalidInput naming the field and the accepted range.
+/// Checks ranges (the k...Range constants above) and consistency (formula compiles, bounds
+/// min < max, axes, ...). @throws InvalidInput naming the field and the accepted range.
 void validate(const Params& params);
 
 /// Parses a parameter file. Unknown keys are an error. Missing keys keep the defaults.

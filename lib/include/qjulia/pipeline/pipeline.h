@@ -67,7 +67,7 @@ struct PipelineResult {
 /// @throws InvalidInput for invalid params; Cancelled when progress returns false.
 PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts = {});
 
-/// The --stats JSON of a run (DESIGN.md's keys and more).
+/// The --stats JSON of a run (docs/design.md's keys and more).
 std::string stats_to_json(const RunStats& stats, const Params& params);
 
 /// The library version, "MAJOR.MINOR.PATCH".

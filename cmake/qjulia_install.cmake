@@ -1,0 +1,24 @@
+# `cmake --install`: the library, its public headers, the qjulia command and a CMake package,
+# so that a C++ project does find_package(qjulia) and links qjulia::qjulia
+# (examples/consumer; scripts/check_install.sh builds it against an installed tree).
+include(CMakePackageConfigHelpers)
+
+set(QJULIA_CMAKE_DIR ${CMAKE_INSTALL_LIBDIR}/cmake/qjulia)
+install(TARGETS qjulia EXPORT qjuliaTargets
+        ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+        LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}
+        INCLUDES DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/lib/include/qjulia
+        DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
+install(TARGETS qjulia_cli EXPORT qjuliaTargets RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+install(EXPORT qjuliaTargets NAMESPACE qjulia:: DESTINATION ${QJULIA_CMAKE_DIR})
+
+configure_package_config_file(${CMAKE_CURRENT_LIST_DIR}/qjuliaConfig.cmake.in
+                              ${CMAKE_CURRENT_BINARY_DIR}/qjuliaConfig.cmake
+                              INSTALL_DESTINATION ${QJULIA_CMAKE_DIR})
+write_basic_package_version_file(${CMAKE_CURRENT_BINARY_DIR}/qjuliaConfigVersion.cmake
+                                 COMPATIBILITY SameMinorVersion)
+install(FILES ${CMAKE_CURRENT_BINARY_DIR}/qjuliaConfig.cmake
+              ${CMAKE_CURRENT_BINARY_DIR}/qjuliaConfigVersion.cmake
+              ${CMAKE_CURRENT_LIST_DIR}/qjulia_dependencies.cmake
+        DESTINATION ${QJULIA_CMAKE_DIR})

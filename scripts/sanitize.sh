@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Builds the test suite with AddressSanitizer + UndefinedBehaviorSanitizer in build-asan/
+# (build type Sanitize) and runs it. Any sanitizer report fails the run: UBSan stops at the
+# first error, ASan and LeakSanitizer make the process exit non-zero. Only the test executables
+# and the CLI they run are built (no benchmarks).
+# Usage: scripts/sanitize.sh [ctest arguments...]   e.g. scripts/sanitize.sh -R Render
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/setup.sh
+start=$(date +%s)
+cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=Sanitize >/dev/null
+cmake --build build-asan -j "$(nproc)" --target qjulia_tests
+built=$(date +%s)
+
+supp=$PWD/scripts/sanitize  # each suppression there is documented
+export ASAN_OPTIONS="detect_leaks=1:check_initialization_order=1:strict_init_order=1"
+export UBSAN_OPTIONS="halt_on_error=1:print_stacktrace=1"  # no UBSan suppression is needed
+export LSAN_OPTIONS="suppressions=$supp/lsan.supp:print_suppressions=0"
+# The signal tests time the CLI's exit to the second (a property of the Release build); every
+# other test runs.
+ctest --test-dir build-asan --output-on-failure -j "$(nproc)" -E '^MeshStages/Signals\.' "$@"
+end=$(date +%s)
+echo "sanitize: build $(((built - start) / 60)) min $(((built - start) % 60)) s, tests" \
+  "$(((end - built) / 60)) min $(((end - built) % 60)) s"
