@@ -421,5 +421,19 @@ TEST(Extract, BricksMeasureTheMeshAsAWholeMeshPassDoesOnEveryPreset) {
   }
 }
 
+TEST(Extract, SmallGridsAreSampledWhole) {
+  // At a few voxels a side the coarse lattice would miss the ball: such grids are sampled
+  // densely, and the surface is the same as the dense path's.
+  for (int res : {4, 8, 12, 16, 24, 32}) {
+    SCOPED_TRACE(res);
+    Params p = preset("unit-ball");
+    p.resolution = res;
+    const Meshed sparse = mesh_of(p, false), dense = mesh_of(p, true);
+    expect_watertight(sparse.measure);
+    EXPECT_EQ(sparse.measure.faces, dense.measure.faces);
+    EXPECT_NEAR(sparse.measure.volume, dense.measure.volume, 1e-12);
+  }
+}
+
 }  // namespace
 }  // namespace qjulia

@@ -547,7 +547,7 @@ BrickList BrickSampler::run() {
   std::vector<std::uint64_t> refined8;  // bricks that run the stride-4 level (sorted)
   // The dense path evaluates every point of every brick itself (the reference the sparse path
   // is tested against); the sparse path shares points between neighbours.
-  if (!opts_.dense) im.map = &bricks;
+  if (!opts_.dense && std::max({P[0], P[1], P[2]}) > 2 * kCoarse) im.map = &bricks;
   // Runs f(n, batch) for every brick of `keys`, in eight classes by coordinate parity (see
   // Impl::need), each class in parallel.
   auto by_class = [&](const std::vector<std::uint64_t>& keys, auto&& f) {
@@ -564,7 +564,10 @@ BrickList BrickSampler::run() {
       });
   };
 
-  if (opts_.dense) {
+  // A grid of at most two coarse blocks a side is sampled densely: the coarse lattice would hold
+  // too few points to see the surface.
+  const bool dense = opts_.dense || std::max({P[0], P[1], P[2]}) <= 2 * kCoarse;
+  if (dense) {
     // Every point of every brick; every cell examined.
     std::vector<std::uint64_t> keys;
     for (int bx = -1; bx * kBrick <= P[0] - 1; ++bx)
