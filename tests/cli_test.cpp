@@ -282,7 +282,7 @@ TEST_F(Cli, BenchRunsAPresetAndPrintsItsLine) {
 
 // Needs the export stage (write_mesh).
 TEST_F(Cli, MeshWritesTheMeshAndTheStatsOfTheUnitBall) {
-  const CliRun r = run("mesh --preset unit-ball --resolution 32 -o ball.ply --stats s.json");
+  const CliRun r = run("mesh --preset unit-ball --resolution 64 -o ball.ply --stats s.json");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(files(), (std::vector<std::string>{"ball.ply", "s.json"}));
   const std::string ply = read_text(work_ / "ball.ply");

@@ -2,9 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <stdexcept>
 
 #include "surface/cube.h"
+#include "surface/embed.h"
 #include "surface/refine.h"
 
 namespace qjulia::detail {
@@ -24,7 +26,127 @@ int code_of(const CubeTables& t, const int ci[3], int e) {
                    t.edge_axis[e]);
 }
 
+using Pos = std::array<double, 3>;
+
+// Every triangulation of a loop of `len` vertices with no diagonal joining two cube edges of
+// one face, as lists of loop positions (three per triangle), at most `limit` of them.
+void all_triangulations(const std::uint8_t* loop, int len, std::size_t limit,
+                        std::vector<std::vector<std::uint8_t>>& out) {
+  const auto& share = cube().share_face;
+  auto allowed = [&](int i, int j) {
+    return j - i == 1 || (i == 0 && j == len - 1) || !share[loop[i]][loop[j]];
+  };
+  // Triangulations of the sub-polygon i..j, appended to `acc`, calling `done` for each.
+  std::function<void(std::vector<std::pair<int, int>>&, std::vector<std::uint8_t>&)> expand =
+      [&](std::vector<std::pair<int, int>>& todo, std::vector<std::uint8_t>& acc) {
+        if (out.size() >= limit) return;
+        if (todo.empty()) {
+          out.push_back(acc);
+          return;
+        }
+        const auto [i, j] = todo.back();
+        todo.pop_back();
+        if (j - i < 2) {
+          expand(todo, acc);
+        } else if (allowed(i, j)) {
+          for (int k = i + 1; k < j; ++k) {
+            if (!allowed(i, k) || !allowed(k, j)) continue;
+            acc.push_back(static_cast<std::uint8_t>(i));
+            acc.push_back(static_cast<std::uint8_t>(k));
+            acc.push_back(static_cast<std::uint8_t>(j));
+            todo.push_back({i, k});
+            todo.push_back({k, j});
+            expand(todo, acc);
+            todo.pop_back();
+            todo.pop_back();
+            acc.resize(acc.size() - 3);
+          }
+        }
+        todo.push_back({i, j});
+      };
+  std::vector<std::pair<int, int>> todo{{0, len - 1}};
+  std::vector<std::uint8_t> acc;
+  expand(todo, acc);
+}
+
+double area(const Triangle& t) {
+  const Pos u{t[1][0] - t[0][0], t[1][1] - t[0][1], t[1][2] - t[0][2]};
+  const Pos v{t[2][0] - t[0][0], t[2][1] - t[0][1], t[2][2] - t[0][2]};
+  const Pos c{u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]};
+  return 0.5 * std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
+}
+
+// True when none of `fresh` crosses another of them or one of `placed`.
+bool embedded(const std::vector<Triangle>& fresh, const std::vector<Triangle>& placed) {
+  for (std::size_t i = 0; i < fresh.size(); ++i) {
+    for (std::size_t j = i + 1; j < fresh.size(); ++j)
+      if (triangles_cross(fresh[i], fresh[j])) return false;
+    for (const Triangle& p : placed)
+      if (triangles_cross(fresh[i], p)) return false;
+  }
+  return true;
+}
+
+// The centre vertex of a loop: the boundary point nearest the loop's centroid inside the cell
+// (lowest corner lo), searched along the loop's normal and 13 more directions; the centroid when
+// none is found. A point strictly inside the cell: the cone from it over the loop (which lies on
+// the cell's faces) never crosses itself, nor anything in the neighbouring cells.
+Pos centre_of(const Solid& solid, const GridGeometry& geo, const Pos& lo, const Pos* pts, int len,
+              double tol, std::uint64_t* evaluations) {
+  Pos mid{0, 0, 0}, normal{0, 0, 0};
+  for (int q = 0; q < len; ++q) {
+    const Pos& a = pts[q];
+    const Pos& b = pts[(q + 1) % len];
+    for (int k = 0; k < 3; ++k) mid[k] += a[k] / len;
+    // Newell's normal of the loop.
+    normal[0] += (a[1] - b[1]) * (a[2] + b[2]);
+    normal[1] += (a[2] - b[2]) * (a[0] + b[0]);
+    normal[2] += (a[0] - b[0]) * (a[1] + b[1]);
+  }
+  return boundary_in_cell(solid, mid, normal, lo, geo.voxel, tol, evaluations);
+}
+
+bool on_upper_face(int code) {
+  const int p = code / 3;
+  return p / 81 == kBrick || (p / 9) % 9 == kBrick || p % 9 == kBrick;
+}
+
+// BrickNeighbours::find, remembered by edge code (each vertex is a corner of up to four cells).
+class Lookup {
+ public:
+  explicit Lookup(const BrickNeighbours& around) : around_(around) {
+    std::fill(std::begin(slot_), std::end(slot_), kUnset);
+  }
+  std::pair<int, std::size_t> operator()(int code) {
+    std::uint64_t& s = slot_[code];
+    if (s == kUnset) {
+      const auto [dir, index] = around_.find(code);
+      s = (static_cast<std::uint64_t>(index) << 3) | static_cast<std::uint64_t>(dir);
+    }
+    return {static_cast<int>(s & 7), static_cast<std::size_t>(s >> 3)};
+  }
+
+ private:
+  static constexpr std::uint64_t kUnset = ~std::uint64_t{0};
+  const BrickNeighbours& around_;
+  std::uint64_t slot_[kEdgeCodes];
+};
+
 }  // namespace
+
+std::pair<int, std::size_t> BrickNeighbours::find(int code) const {
+  const int p = code / 3;
+  const int l[3] = {p / 81, (p / 9) % 9, p % 9};
+  const int dir = (l[0] == kBrick) | ((l[1] == kBrick) << 1) | ((l[2] == kBrick) << 2);
+  const int own = edge_code(l[0] - kBrick * (dir & 1), l[1] - kBrick * ((dir >> 1) & 1),
+                            l[2] - kBrick * (dir >> 2), code % 3);
+  const std::vector<std::uint16_t>* list = codes[dir];
+  if (!list) throw std::logic_error("extract: a neighbour brick is missing");
+  const auto it = std::lower_bound(list->begin(), list->end(), own);
+  if (it == list->end() || *it != own)
+    throw std::logic_error("extract: a neighbour brick lacks a shared vertex");
+  return {dir, static_cast<std::size_t>(it - list->begin())};
+}
 
 BrickVertices brick_vertices(const Brick& br, const Solid& solid, const GridGeometry& geo,
                              const BrickMeshOptions& opts) {
@@ -33,12 +155,11 @@ BrickVertices brick_vertices(const Brick& br, const Solid& solid, const GridGeom
   out.key = br.key;
   const int base[3] = {br.at.x * kBrick, br.at.y * kBrick, br.at.z * kBrick};
   auto position = [&](int li, int lj, int lk) {
-    return std::array<double, 3>{geo.origin[0] + (base[0] + li) * geo.voxel,
-                                 geo.origin[1] + (base[1] + lj) * geo.voxel,
-                                 geo.origin[2] + (base[2] + lk) * geo.voxel};
+    return Pos{geo.origin[0] + (base[0] + li) * geo.voxel,
+               geo.origin[1] + (base[1] + lj) * geo.voxel,
+               geo.origin[2] + (base[2] + lk) * geo.voxel};
   };
-  // The crossing edges of the surface cells that the brick owns, each once; the counts of the
-  // second pass from the cells' loops.
+  // 1. The crossing edges of the surface cells that the brick owns, each once.
   Bits<kEdgeCodes> seen;
   std::vector<int> edges;
   for (int c = 0; c < kBrickCells; ++c) {
@@ -50,26 +171,13 @@ BrickVertices brick_vertices(const Brick& br, const Solid& solid, const GridGeom
       const int d0 = t.edge_corner[e], d1 = d0 | (1 << t.edge_axis[e]);
       if ((v[d0] <= 0) == (v[d1] <= 0)) continue;
       const int code = code_of(t, ci, e);
-      const int p = code / 3;
-      if (p / 81 == kBrick || (p / 9) % 9 == kBrick || p % 9 == kBrick) continue;  // not ours
-      if (seen.test(code)) continue;
+      if (seen.test(code) || on_upper_face(code)) continue;
       seen.set(code);
       edges.push_back(code);
     }
-    const CellLoops loops = cell_loops(v);
-    for (int L = 0; L < loops.count; ++L) {
-      std::uint8_t tris[3 * 10];
-      const int n = triangulate_loop(
-          loops.edge[L], loops.length[L], [](int, int) { return 0.0; }, tris);
-      if (n > 0) {
-        out.triangles += static_cast<std::uint32_t>(n);
-      } else {
-        out.triangles += static_cast<std::uint32_t>(loops.length[L]);
-        ++out.centres;
-      }
-    }
   }
   std::sort(edges.begin(), edges.end());
+  // 2. Their vertices on the boundary, all at once.
   std::vector<Segment> segs(edges.size());
   for (std::size_t i = 0; i < edges.size(); ++i) {
     const int code = edges[i], axis = code % 3, p = code / 3;
@@ -81,38 +189,118 @@ BrickVertices brick_vertices(const Brick& br, const Solid& solid, const GridGeom
     segs[i].fa = br.get(point_index(l[0], l[1], l[2]));
     segs[i].fb = br.get(point_index(h[0], h[1], h[2]));
   }
-  std::vector<std::array<double, 3>> where(edges.size());
+  std::vector<Pos> where(edges.size());
   out.evaluations += refine_segments(solid, segs.data(), segs.size(), opts.tolerance,
                                      opts.max_refine_steps, where.data());
+  out.codes.assign(edges.begin(), edges.end());
   out.positions.resize(edges.size());
-  out.codes.resize(edges.size());
-  for (std::size_t i = 0; i < edges.size(); ++i) {
-    out.codes[i] = static_cast<std::uint16_t>(edges[i]);
+  for (std::size_t i = 0; i < edges.size(); ++i)
     out.positions[i] = {static_cast<float>(where[i][0]), static_cast<float>(where[i][1]),
                         static_cast<float>(where[i][2])};
+  return out;
+}
+
+BrickPlan plan_brick(const Brick& br, const Solid& solid, const GridGeometry& geo,
+                     const BrickMeshOptions& opts, const BrickNeighbours& around) {
+  const CubeTables& t = cube();
+  BrickPlan out;
+  const int base[3] = {br.at.x * kBrick, br.at.y * kBrick, br.at.z * kBrick};
+  Lookup lookup(around);
+  auto point_of = [&](int code) {
+    const auto [dir, index] = lookup(code);
+    const std::array<float, 3>& p = around.positions[dir][index];
+    return Pos{p[0], p[1], p[2]};
+  };
+  // The triangles of the cell so far, and the candidates for one loop.
+  std::vector<Triangle> placed, fresh;
+  std::vector<std::vector<std::uint8_t>> options;
+  std::vector<std::pair<double, std::size_t>> by_area;
+  for (int c = 0; c < kBrickCells; ++c) {
+    if (!br.surface.test(c)) continue;
+    const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
+    float v[8];
+    cell_values(br, c, v);
+    const CellCase& cc = cell_case(v);
+    placed.clear();
+    bool cell_ok = true;
+    for (int L = 0; L < cc.loops; ++L) {
+      const int len = cc.length[L];
+      Pos pts[12];
+      for (int q = 0; q < len; ++q) pts[q] = point_of(code_of(t, ci, cc.edge[L][q]));
+      auto triangles_of = [&](const std::uint8_t* tri, int n) {
+        fresh.clear();
+        for (int q = 0; q < n; ++q)
+          fresh.push_back({pts[tri[3 * q]], pts[tri[3 * q + 1]], pts[tri[3 * q + 2]]});
+      };
+      auto choose = [&](const std::uint8_t* tri, int n) {
+        LoopChoice choice;
+        choice.cell = static_cast<std::uint16_t>(c);
+        choice.loop = static_cast<std::uint8_t>(L);
+        choice.count = static_cast<std::uint8_t>(n);
+        std::copy(tri, tri + 3 * n, choice.tri);
+        out.choices.push_back(choice);
+      };
+      bool done = false;
+      if (cc.triangles[L] > 0) {
+        triangles_of(cc.tri[L], cc.triangles[L]);
+        if (embedded(fresh, placed)) {
+          done = true;
+        } else if (len <= 9) {
+          // The other triangulations, least area first.
+          options.clear();
+          all_triangulations(cc.edge[L], len, 500, options);
+          by_area.clear();
+          for (std::size_t o = 0; o < options.size(); ++o) {
+            triangles_of(options[o].data(), static_cast<int>(options[o].size() / 3));
+            double a = 0;
+            for (const Triangle& tr : fresh) a += area(tr);
+            by_area.emplace_back(a, o);
+          }
+          std::sort(by_area.begin(), by_area.end());
+          for (const auto& [a, o] : by_area) {
+            const auto& tri = options[o];
+            const int n = static_cast<int>(tri.size() / 3);
+            triangles_of(tri.data(), n);
+            if (!embedded(fresh, placed)) continue;
+            choose(tri.data(), n);
+            done = true;
+            break;
+          }
+        }
+      }
+      if (!done) {
+        // Around a centre vertex inside the cell.
+        const Pos lo{geo.origin[0] + (base[0] + ci[0]) * geo.voxel,
+                     geo.origin[1] + (base[1] + ci[1]) * geo.voxel,
+                     geo.origin[2] + (base[2] + ci[2]) * geo.voxel};
+        const Pos centre = centre_of(solid, geo, lo, pts, len, opts.tolerance, &out.evaluations);
+        const std::array<float, 3> stored{static_cast<float>(centre[0]),
+                                          static_cast<float>(centre[1]),
+                                          static_cast<float>(centre[2])};
+        const Pos at{stored[0], stored[1], stored[2]};
+        fresh.clear();
+        for (int q = 0; q < len; ++q) fresh.push_back({at, pts[q], pts[(q + 1) % len]});
+        if (!embedded(fresh, placed)) cell_ok = false;
+        if (cc.triangles[L] > 0) choose(nullptr, 0);  // not the table's choice
+        out.centres.push_back(stored);
+      }
+      placed.insert(placed.end(), fresh.begin(), fresh.end());
+      out.triangles += static_cast<std::uint32_t>(fresh.size());
+    }
+    if (!cell_ok) ++out.unmended;
   }
   return out;
 }
 
-BrickFaces brick_triangles(const Brick& br, const Solid& solid, const GridGeometry& geo,
-                           const BrickMeshOptions& opts, const MeshTarget& target) {
+BrickFaces brick_triangles(const Brick& br, const BrickPlan& plan, const MeshTarget& target) {
   const CubeTables& t = cube();
   BrickFaces out;
-  // The vertex of a local edge code: ours, or the neighbour's whose lower point it is.
-  auto vertex_of = [&](int code) -> std::uint32_t {
-    const int p = code / 3;
-    const int l[3] = {p / 81, (p / 9) % 9, p % 9};
-    const int dir = (l[0] == kBrick) | ((l[1] == kBrick) << 1) | ((l[2] == kBrick) << 2);
-    const int own = edge_code(l[0] - kBrick * (dir & 1), l[1] - kBrick * ((dir >> 1) & 1),
-                              l[2] - kBrick * (dir >> 2), code % 3);
-    const std::vector<std::uint16_t>* codes = target.codes[dir];
-    if (!codes) throw std::logic_error("extract: a neighbour brick is missing");
-    const auto it = std::lower_bound(codes->begin(), codes->end(), own);
-    if (it == codes->end() || *it != own)
-      throw std::logic_error("extract: a neighbour brick lacks a shared vertex");
-    return static_cast<std::uint32_t>(target.base[dir] + (it - codes->begin()));
+  Lookup lookup(target.around);
+  auto vertex_of = [&](int code) {
+    const auto [dir, index] = lookup(code);
+    return static_cast<std::uint32_t>(target.around.base[dir] + index);
   };
-  std::size_t face = target.face_base, centre = target.centre_base;
+  std::size_t face = target.face_base, centre = target.centre_base, choice = 0;
   for (int c = 0; c < kBrickCells; ++c) {
     if (!br.surface.test(c)) continue;
     const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
@@ -130,33 +318,25 @@ BrickFaces brick_triangles(const Brick& br, const Solid& solid, const GridGeomet
         if (ci[axis] == (side ? kBrick - 1 : 0))
           out.border[2 * axis + side].push_back({ids[q], ids[(q + 1) % len]});
       }
-      // Triangulated without a diagonal that joins two vertices of one cube face (the
-      // neighbour cell could make the same edge); else around a centre vertex.
-      const int n = cc.triangles[L];
+      const std::uint8_t* tris = cc.tri[L];
+      int n = cc.triangles[L];
+      if (choice < plan.choices.size() && plan.choices[choice].cell == c &&
+          plan.choices[choice].loop == L) {
+        tris = plan.choices[choice].tri;
+        n = plan.choices[choice].count;
+        ++choice;
+      }
       if (n > 0) {
-        const std::uint8_t* tris = cc.tri[L];
         for (int q = 0; q < n; ++q)
           target.triangles[face++] = {ids[tris[3 * q]], ids[tris[3 * q + 1]], ids[tris[3 * q + 2]]};
         continue;
       }
-      std::array<double, 3> mid{0, 0, 0}, normal{0, 0, 0};
-      for (int q = 0; q < len; ++q) {
-        const auto& a = target.positions[ids[q]];
-        const auto& b = target.positions[ids[(q + 1) % len]];
-        for (int k = 0; k < 3; ++k) mid[k] += static_cast<double>(a[k]) / len;
-        // Newell's normal of the loop.
-        normal[0] += (double(a[1]) - b[1]) * (double(a[2]) + b[2]);
-        normal[1] += (double(a[2]) - b[2]) * (double(a[0]) + b[0]);
-        normal[2] += (double(a[0]) - b[0]) * (double(a[1]) + b[1]);
-      }
-      const auto p =
-          project_to_boundary(solid, mid, normal, geo.voxel, opts.tolerance, &out.evaluations);
       const std::uint32_t cid = static_cast<std::uint32_t>(centre++);
-      target.positions[cid] = {static_cast<float>(p[0]), static_cast<float>(p[1]),
-                               static_cast<float>(p[2])};
       for (int q = 0; q < len; ++q) target.triangles[face++] = {cid, ids[q], ids[(q + 1) % len]};
     }
   }
+  if (face != target.face_base + plan.triangles)
+    throw std::logic_error("extract: the second pass made another number of triangles");
   return out;
 }
 

@@ -1,12 +1,13 @@
 #pragma once
-// Marching cubes over one brick, in two passes so the mesh is written in place: first the
-// vertices on the crossing grid edges the brick owns (their lower point is in the brick), moved
-// onto the exact boundary, with the counts of the triangles and centre vertices its cells will
-// make; then, once every brick's vertices are numbered, the triangles, whose corners on edges
-// owned by a neighbour are found by the neighbour's edge codes, so bricks weld by an exact key
-// join.
+// Marching cubes over one brick, in passes so the mesh is written in place: first the vertices
+// on the crossing grid edges the brick owns (their lower point is in the brick), moved onto the
+// exact boundary; then, with the neighbours' vertices at hand, the plan of each cell (which
+// triangulation keeps the surface embedded, and the centre vertices); then, once every brick's
+// vertices are numbered, the triangles, whose corners on edges owned by a neighbour are found
+// by the neighbour's edge codes, so bricks weld by an exact key join.
 #include <array>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "grid/bricks.h"
@@ -25,46 +26,71 @@ struct BrickMeshOptions {
   int max_refine_steps = 24;
 };
 
-/// The first pass over a brick.
+/// A loop triangulated otherwise than by the table: so that the cell's triangles do not cross.
+struct LoopChoice {
+  std::uint16_t cell = 0;  ///< local cell index
+  std::uint8_t loop = 0;   ///< the loop in the cell's case
+  std::uint8_t count = 0;  ///< triangles in `tri`; 0: around a centre vertex
+  std::uint8_t tri[30] = {};
+};
+
+/// The first pass over a brick: the vertices on the crossing edges it owns.
 struct BrickVertices {
   std::uint64_t key = 0;
   std::vector<std::array<float, 3>> positions;  ///< owned edge vertices, by ascending code
   std::vector<std::uint16_t> codes;             ///< their edge codes
-  std::uint32_t triangles = 0;                  ///< the triangles the second pass writes
-  std::uint32_t centres = 0;                    ///< the centre vertices it adds
   std::uint64_t evaluations = 0;                ///< classifier calls
 };
 
-/// The vertices of the surface cells of `brick` on the edges it owns (every corner of a
-/// surface cell must be known), and the counts of the second pass.
+/// The vertices on the crossing edges of the surface cells of `brick` that it owns (every
+/// corner of a surface cell must be known), moved onto the boundary.
 BrickVertices brick_vertices(const Brick& brick, const Solid& solid, const GridGeometry& geo,
                              const BrickMeshOptions& opts);
 
-/// Where the second pass reads vertices and writes its results.
-struct MeshTarget {
-  std::array<float, 3>* positions = nullptr;          ///< the mesh's positions (edge vertices set)
-  std::array<std::uint32_t, 3>* triangles = nullptr;  ///< the mesh's triangles
-  std::size_t vertex_base = 0;                        ///< index of the brick's first edge vertex
-  std::size_t centre_base = 0;                        ///< index of its first centre vertex
-  std::size_t face_base = 0;                          ///< index of its first triangle
-  /// The neighbours in direction bits (x = 1, y = 2, z = 4, towards +): their edge codes and
-  /// first vertex; [0] is the brick itself.
+/// The edge vertices around a brick: its own and those of its neighbours in direction bits
+/// (x = 1, y = 2, z = 4, towards +; [0] is the brick itself), numbered from `base`.
+struct BrickNeighbours {
   const std::vector<std::uint16_t>* codes[8] = {};
+  const std::array<float, 3>* positions[8] = {};  ///< may be null where only indices are needed
   std::size_t base[8] = {};
+  /// The direction and index in it of the vertex on local edge `code`; throws when missing.
+  std::pair<int, std::size_t> find(int code) const;
 };
 
-/// The second pass's results besides the written triangles and centre vertices.
+/// How the cells of a brick are triangulated: the table's way, except where listed.
+struct BrickPlan {
+  std::vector<std::array<float, 3>> centres;  ///< centre vertices, in the order of the cells
+  std::vector<LoopChoice> choices;            ///< by cell, then loop
+  std::uint32_t triangles = 0;                ///< the triangles the second pass writes
+  std::size_t unmended = 0;                   ///< cells whose triangles cross whatever was tried
+  std::uint64_t evaluations = 0;
+};
+
+/// The plan of each surface cell of `brick`: every loop is triangulated without a diagonal on a
+/// cube face (the neighbour cell could make the same edge), by the table's triangulation when
+/// the cell's triangles then do not cross, else by another (least area first) or around a
+/// centre vertex on the boundary inside the cell. Reads the edge vertices of `around`.
+BrickPlan plan_brick(const Brick& brick, const Solid& solid, const GridGeometry& geo,
+                     const BrickMeshOptions& opts, const BrickNeighbours& around);
+
+/// Where the second pass reads vertices and writes its results.
+struct MeshTarget {
+  std::array<std::uint32_t, 3>* triangles = nullptr;  ///< the mesh's triangles
+  std::size_t centre_base = 0;                        ///< index of the brick's first centre vertex
+  std::size_t face_base = 0;                          ///< index of its first triangle
+  BrickNeighbours around;                             ///< the vertex numbers around the brick
+};
+
+/// The second pass's results besides the written triangles.
 struct BrickFaces {
   /// The triangle edges on a face of the brick (-x, +x, -y, +y, -z, +z: 2 * axis + side) as
   /// (from, to) vertex indices in the triangles' orientation: the neighbour across that face has
   /// each of them the other way round.
   std::vector<std::array<std::uint32_t, 2>> border[6];
-  std::uint64_t evaluations = 0;
 };
 
-/// The triangles of the surface cells of `brick` (and their centre vertices), written at the
-/// target's bases. Writes exactly the counts the first pass gave.
-BrickFaces brick_triangles(const Brick& brick, const Solid& solid, const GridGeometry& geo,
-                           const BrickMeshOptions& opts, const MeshTarget& target);
+/// The triangles of the surface cells of `brick` by its plan, written at the target's bases.
+/// Writes exactly the plan's count.
+BrickFaces brick_triangles(const Brick& brick, const BrickPlan& plan, const MeshTarget& target);
 
 }  // namespace qjulia::detail

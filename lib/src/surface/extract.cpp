@@ -209,24 +209,52 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
                         }
                       });
   };
-  // Pass one.
+  // Pass one: the edge vertices.
   std::vector<detail::BrickVertices> verts(nb);
-  each_brick(0.0, 0.45, [&](std::size_t i) {
+  each_brick(0.0, 0.35, [&](std::size_t i) {
     verts[i] = detail::brick_vertices(*impl.bricks[i], *impl.solid, impl.geometry, bopts);
   });
+  std::unordered_map<std::uint64_t, std::size_t> index;
+  index.reserve(nb * 2);
+  for (std::size_t i = 0; i < nb; ++i) index.emplace(verts[i].key, i);
+  auto neighbour = [&](std::size_t i, int dx, int dy, int dz) -> std::ptrdiff_t {
+    const detail::BrickCoord at = detail::brick_of_key(verts[i].key);
+    const auto it = index.find(detail::brick_key(at.x + dx, at.y + dy, at.z + dz));
+    return it == index.end() ? -1 : static_cast<std::ptrdiff_t>(it->second);
+  };
   std::vector<BrickRange> range(nb);
-  std::size_t edges_total = 0, centres_total = 0, faces_total = 0;
+  // The vertices around brick i: its own and its +x, +y, +z neighbours'.
+  auto around = [&](std::size_t i, bool positions) {
+    detail::BrickNeighbours a;
+    for (int dir = 0; dir < 8; ++dir) {
+      const std::ptrdiff_t n = dir == 0 ? static_cast<std::ptrdiff_t>(i)
+                                        : neighbour(i, dir & 1, (dir >> 1) & 1, dir >> 2);
+      if (n < 0) continue;
+      a.codes[dir] = &verts[n].codes;
+      if (positions) a.positions[dir] = verts[n].positions.data();
+      a.base[dir] = range[n].edge;
+    }
+    return a;
+  };
+  // Pass two: how each cell is triangulated, and the centre vertices.
+  std::vector<detail::BrickPlan> plans(nb);
+  each_brick(0.35, 0.5, [&](std::size_t i) {
+    plans[i] =
+        detail::plan_brick(*impl.bricks[i], *impl.solid, impl.geometry, bopts, around(i, true));
+  });
+  std::size_t edges_total = 0, centres_total = 0, faces_total = 0, unmended = 0;
   std::uint64_t evaluations = 0;
   for (std::size_t i = 0; i < nb; ++i) {
     range[i].edge = edges_total;
     range[i].edges = verts[i].positions.size();
     range[i].face = faces_total;
-    range[i].faces = verts[i].triangles;
-    range[i].centres = verts[i].centres;
+    range[i].faces = plans[i].triangles;
+    range[i].centres = plans[i].centres.size();
     edges_total += range[i].edges;
     faces_total += range[i].faces;
     centres_total += range[i].centres;
-    evaluations += verts[i].evaluations;
+    evaluations += verts[i].evaluations + plans[i].evaluations;
+    unmended += plans[i].unmended;
   }
   for (std::size_t i = 0, c = edges_total; i < nb; ++i) {
     range[i].centre = c;
@@ -241,36 +269,23 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
   for (std::size_t i = 0; i < nb; ++i) {
     std::copy(verts[i].positions.begin(), verts[i].positions.end(),
               mesh.positions.begin() + range[i].edge);
+    std::copy(plans[i].centres.begin(), plans[i].centres.end(),
+              mesh.positions.begin() + range[i].centre);
     std::vector<std::array<float, 3>>().swap(verts[i].positions);
+    std::vector<std::array<float, 3>>().swap(plans[i].centres);
   }
-  std::unordered_map<std::uint64_t, std::size_t> index;
-  index.reserve(nb * 2);
-  for (std::size_t i = 0; i < nb; ++i) index.emplace(verts[i].key, i);
-  auto neighbour = [&](std::size_t i, int dx, int dy, int dz) -> std::ptrdiff_t {
-    const detail::BrickCoord at = detail::brick_of_key(verts[i].key);
-    const auto it = index.find(detail::brick_key(at.x + dx, at.y + dy, at.z + dz));
-    return it == index.end() ? -1 : static_cast<std::ptrdiff_t>(it->second);
-  };
-  // Pass two, with the measures of each brick.
+  // Pass three: the triangles, with the measures of each brick.
   const std::array<double, 3> origin = impl.geometry.origin;
   std::vector<detail::BrickFaces> faces(nb);
   std::vector<BrickMeasure> bm(nb);
   std::vector<std::uint32_t> face_component(faces_total);
-  each_brick(0.45, 0.9, [&](std::size_t i) {
+  each_brick(0.5, 0.9, [&](std::size_t i) {
     detail::MeshTarget target;
-    target.positions = mesh.positions.data();
     target.triangles = mesh.triangles.data();
-    target.vertex_base = range[i].edge;
     target.centre_base = range[i].centre;
     target.face_base = range[i].face;
-    for (int dir = 0; dir < 8; ++dir) {
-      const std::ptrdiff_t n = dir == 0 ? static_cast<std::ptrdiff_t>(i)
-                                        : neighbour(i, dir & 1, (dir >> 1) & 1, dir >> 2);
-      if (n < 0) continue;
-      target.codes[dir] = &verts[n].codes;
-      target.base[dir] = range[n].edge;
-    }
-    faces[i] = detail::brick_triangles(*impl.bricks[i], *impl.solid, impl.geometry, bopts, target);
+    target.around = around(i, false);
+    faces[i] = detail::brick_triangles(*impl.bricks[i], plans[i], target);
     if (release) impl.bricks[i].reset();
     bm[i] = measure_brick(mesh, range[i], faces[i].border, origin,
                           face_component.data() + range[i].face);
@@ -280,7 +295,6 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
     impl.bricks.shrink_to_fit();
     malloc_trim(0);
   }
-  for (std::size_t i = 0; i < nb; ++i) evaluations += faces[i].evaluations;
   // The half-edges on brick faces: each brick's +x, +y, +z lists against the neighbour's -x,
   // -y, -z lists, reversed.
   std::vector<std::size_t> border_edges(nb, 0), border_problems(nb, 0);
@@ -421,6 +435,7 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
     evaluations += detail::colorize(mesh, *impl.solid, impl.geometry.voxel, opts.color);
   if (stats) {
     stats->evaluations = evaluations;
+    stats->crossing_cells = unmended;
     stats->measure_valid = m.closed && degenerate == 0;
     stats->measure = std::move(m);
     stats->face_component = std::move(face_component);

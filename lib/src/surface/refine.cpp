@@ -189,4 +189,70 @@ std::array<double, 3> project_to_boundary(const Solid& solid, const std::array<d
   return best_point;
 }
 
+std::array<double, 3> boundary_in_cell(const Solid& solid, const std::array<double, 3>& c,
+                                       const std::array<double, 3>& normal,
+                                       const std::array<double, 3>& lo, double voxel, double tol_t,
+                                       std::uint64_t* evaluations) {
+  std::array<double, 3> dirs[14];
+  dirs[0] = normal;
+  int nd = 1;
+  for (int dx = -1; dx <= 1; ++dx)
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dz = -1; dz <= 1; ++dz)
+        if (dx > 0 || (dx == 0 && (dy > 0 || (dy == 0 && dz > 0))))
+          dirs[nd++] = {double(dx), double(dy), double(dz)};
+  // Half-lines from c both ways along each direction, to the cell's walls less the margin.
+  const double margin = 1e-3 * voxel;
+  std::vector<std::array<double, 3>> ends;
+  for (const auto& dir : dirs) {
+    if (!(dir[0] != 0 || dir[1] != 0 || dir[2] != 0)) continue;
+    for (double sign : {-1.0, 1.0}) {
+      double t = std::numeric_limits<double>::infinity();
+      for (int k = 0; k < 3; ++k) {
+        const double u = sign * dir[k];
+        if (u > 0) t = std::min(t, (lo[k] + voxel - margin - c[k]) / u);
+        if (u < 0) t = std::min(t, (lo[k] + margin - c[k]) / u);
+      }
+      if (!(t > 0) || !std::isfinite(t)) continue;
+      ends.push_back(
+          {c[0] + t * sign * dir[0], c[1] + t * sign * dir[1], c[2] + t * sign * dir[2]});
+    }
+  }
+  std::vector<double> x(ends.size() + 1), y(ends.size() + 1), z(ends.size() + 1);
+  std::vector<float> f(ends.size() + 1);
+  x[0] = c[0];
+  y[0] = c[1];
+  z[0] = c[2];
+  for (std::size_t i = 0; i < ends.size(); ++i) {
+    x[i + 1] = ends[i][0];
+    y[i + 1] = ends[i][1];
+    z[i + 1] = ends[i][2];
+  }
+  solid.field(x.data(), y.data(), z.data(), x.size(), f.data());
+  *evaluations += x.size();
+  std::vector<Segment> segs;
+  for (std::size_t i = 0; i < ends.size(); ++i) {
+    if ((f[0] <= 0) == (f[i + 1] <= 0)) continue;
+    Segment s;
+    s.a = c;
+    s.fa = f[0];
+    s.b = ends[i];
+    s.fb = f[i + 1];
+    segs.push_back(s);
+  }
+  if (segs.empty()) return c;
+  std::vector<std::array<double, 3>> found(segs.size());
+  *evaluations += refine_segments(solid, segs.data(), segs.size(), tol_t, 24, found.data());
+  std::array<double, 3> best_point = c;
+  double best = std::numeric_limits<double>::infinity();
+  for (const auto& p : found) {
+    const double dist = std::hypot(p[0] - c[0], p[1] - c[1], p[2] - c[2]);
+    if (dist < best) {
+      best = dist;
+      best_point = p;
+    }
+  }
+  return best_point;
+}
+
 }  // namespace qjulia::detail
