@@ -152,43 +152,6 @@ std::uint64_t refine_segments(const Solid& solid, const Segment* seg, std::size_
   return evaluations;
 }
 
-std::array<double, 3> project_to_boundary(const Solid& solid, const std::array<double, 3>& c,
-                                          const std::array<double, 3>& normal, double voxel,
-                                          double tol_t, std::uint64_t* evaluations) {
-  std::array<double, 3> best_point = c;
-  // The loop's normal, then the 13 directions to the neighbours of a cube.
-  std::array<double, 3> dirs[14];
-  dirs[0] = normal;
-  int nd = 1;
-  for (int dx = -1; dx <= 1; ++dx)
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dz = -1; dz <= 1; ++dz)
-        if (dx > 0 || (dx == 0 && (dy > 0 || (dy == 0 && dz > 0))))
-          dirs[nd++] = {double(dx), double(dy), double(dz)};
-  double best = std::numeric_limits<double>::infinity();
-  for (int pass = 0; pass < 2 && !std::isfinite(best); ++pass)
-    for (const auto& dir : dirs) {
-      const double len = std::sqrt(dir[0] * dir[0] + dir[1] * dir[1] + dir[2] * dir[2]);
-      if (!(len > 0)) continue;
-      const double d = (pass == 0 ? 0.5 : 1.0) * voxel / len;
-      Segment s;
-      s.a = {c[0] - d * dir[0], c[1] - d * dir[1], c[2] - d * dir[2]};
-      s.b = {c[0] + d * dir[0], c[1] + d * dir[1], c[2] + d * dir[2]};
-      *evaluations += 2;
-      s.fa = solid.field(s.a[0], s.a[1], s.a[2]);
-      s.fb = solid.field(s.b[0], s.b[1], s.b[2]);
-      if ((s.fa <= 0) == (s.fb <= 0)) continue;
-      std::array<double, 3> p;
-      *evaluations += refine_segments(solid, &s, 1, tol_t, 24, &p);
-      const double dist = std::hypot(p[0] - c[0], p[1] - c[1], p[2] - c[2]);
-      if (dist < best) {
-        best = dist;
-        best_point = p;
-      }
-    }
-  return best_point;
-}
-
 std::array<double, 3> boundary_in_cell(const Solid& solid, const std::array<double, 3>& c,
                                        const std::array<double, 3>& normal,
                                        const std::array<double, 3>& lo, double voxel, double tol_t,

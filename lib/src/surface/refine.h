@@ -28,12 +28,6 @@ constexpr double kEndMargin = 1e-3;
 std::uint64_t refine_segments(const Solid& solid, const Segment* segments, std::size_t n,
                               double tol_t, int max_steps, std::array<double, 3>* out);
 
-/// The nearest boundary point to c along the loop normal and the 13 directions to a cube's
-/// neighbours, within half a voxel, else within a voxel; c itself when none is found.
-std::array<double, 3> project_to_boundary(const Solid& solid, const std::array<double, 3>& c,
-                                          const std::array<double, 3>& normal, double voxel,
-                                          double tol_t, std::uint64_t* evaluations);
-
 /// The boundary point nearest c strictly inside the cell [lo, lo + voxel]^3 (a thousandth of a
 /// voxel from its walls), along the normal and the 13 directions to a cube's neighbours; c
 /// itself when none of those lines crosses the boundary inside the cell.
