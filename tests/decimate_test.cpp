@@ -2,12 +2,14 @@
 #include "qjulia/mesh/decimate.h"
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
 
-#include "test_meshes.h"
 #include "qjulia/base/error.h"
+#include "qjulia/base/progress.h"
+#include "test_meshes.h"
 
 using qjulia::TriMesh;
 
@@ -180,4 +182,76 @@ TEST(Decimate, AvoidSelfIntersectionsReportsAndKeepsTheResultClosed) {
   EXPECT_EQ(*rep.self_intersections, 0u);
   EXPECT_TRUE(fixtures::check(out).closed_manifold_oriented);
   EXPECT_LE(out.face_count(), 2000u);
+}
+
+namespace {
+/// Decimates `mesh` on `threads` threads.
+TriMesh decimate_on(int threads, const TriMesh& mesh, const qjulia::DecimateOptions& opts,
+                    qjulia::DecimateReport* rep) {
+  tbb::task_arena arena(threads);
+  TriMesh out;
+  arena.execute([&] { out = qjulia::decimate(mesh, opts, rep); });
+  return out;
+}
+}  // namespace
+
+TEST(Decimate, ResultDependsOnlyOnTheInputNotOnTheThreads) {
+  // 327,680 faces: the chunked path (chunks simplified in parallel, then joined).
+  const TriMesh bumpy = fixtures::noisy_sphere(7);
+  qjulia::DecimateOptions opts;
+  opts.faces = 30000;
+  qjulia::DecimateReport one, two, three;
+  const TriMesh a = decimate_on(1, bumpy, opts, &one);
+  const TriMesh b = decimate_on(2, bumpy, opts, &two);
+  const TriMesh c = decimate_on(3, bumpy, opts, &three);
+  ASSERT_LE(a.face_count(), 30000u);
+  EXPECT_GT(a.face_count(), 25000u);
+  EXPECT_EQ(a.positions, b.positions);
+  EXPECT_EQ(a.triangles, b.triangles);
+  EXPECT_EQ(a.positions, c.positions);
+  EXPECT_EQ(a.triangles, c.triangles);
+  EXPECT_EQ(one.hausdorff, two.hausdorff);
+  EXPECT_EQ(one.hausdorff, three.hausdorff);
+}
+
+TEST(Decimate, ErrorBoundResultDependsOnlyOnTheInputNotOnTheThreads) {
+  const TriMesh bumpy = fixtures::noisy_sphere(7);
+  qjulia::DecimateOptions opts;
+  opts.max_error = 0.01;
+  qjulia::DecimateReport one, two;
+  const TriMesh a = decimate_on(1, bumpy, opts, &one);
+  const TriMesh b = decimate_on(2, bumpy, opts, &two);
+  EXPECT_LT(a.face_count(), bumpy.face_count() / 2);
+  EXPECT_LE(one.hausdorff, 0.01);
+  EXPECT_EQ(a.positions, b.positions);
+  EXPECT_EQ(a.triangles, b.triangles);
+  EXPECT_EQ(one.hausdorff, two.hausdorff);
+}
+
+TEST(Decimate, ARequestedTokenCancelsBeforeAnyWork) {
+  qjulia::CancelToken token;
+  token.request();
+  qjulia::DecimateOptions opts;
+  opts.faces = 100;
+  opts.cancel = &token;
+  EXPECT_THROW(qjulia::decimate(fixtures::icosphere(3), opts), qjulia::Cancelled);
+}
+
+TEST(Decimate, ATokenRequestedDuringTheWorkCancelsAtTheNextCheck) {
+  // The progress callback requests the token once the chunks are done (and itself never asks
+  // to stop): the stage must notice the token, not the callback.
+  for (const double at : {0.0, 0.4, 0.7}) {
+    qjulia::CancelToken token;
+    qjulia::DecimateOptions opts;
+    opts.faces = 20000;
+    opts.cancel = &token;
+    double last = -1;
+    opts.progress = [&](double f) {
+      last = f;
+      if (f >= at) token.request();
+      return true;
+    };
+    EXPECT_THROW(qjulia::decimate(fixtures::noisy_sphere(7), opts), qjulia::Cancelled) << at;
+    EXPECT_EQ(last, at);
+  }
 }

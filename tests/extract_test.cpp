@@ -6,8 +6,8 @@
 #include <complex>
 
 #include "qjulia/field/classify.h"
-#include "qjulia/pipeline/pipeline.h"
 #include "qjulia/grid/sample.h"
+#include "qjulia/pipeline/pipeline.h"
 
 namespace qjulia {
 namespace {
