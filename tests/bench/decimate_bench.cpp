@@ -4,6 +4,8 @@
 //        ... --avoid-self-intersections (last argument): DecimateOptions::avoid_self_intersections
 //        decimate_bench --preset NAME RESOLUTION RATIO [SIZE_MM MIN_THICKNESS_MM]
 //          (a real fractal mesh from the pipeline; optionally then scaled and thickened)
+//        ... --cancel-after SECONDS: requests the cancel token that long into decimate() and
+//          prints how long decimate() took to throw Cancelled after that
 #include <sys/resource.h>
 
 #include <chrono>
@@ -11,13 +13,16 @@
 #include <cstdlib>
 #include <cstring>
 #include <string>
+#include <thread>
 
 #include "../test_meshes.h"
+#include "qjulia/base/error.h"
+#include "qjulia/base/progress.h"
+#include "qjulia/field/params.h"
 #include "qjulia/mesh/clean.h"
 #include "qjulia/mesh/decimate.h"
-#include "qjulia/field/params.h"
-#include "qjulia/pipeline/pipeline.h"
 #include "qjulia/mesh/print.h"
+#include "qjulia/pipeline/pipeline.h"
 
 namespace {
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -36,6 +41,14 @@ long peak_rss_mb() {
 }  // namespace
 
 int main(int argc, char** argv) {
+  double cancel_after = -1;  // --cancel-after SECONDS, taken out of the positional arguments
+  for (int i = 1; i + 1 < argc; ++i)
+    if (std::strcmp(argv[i], "--cancel-after") == 0) {
+      cancel_after = std::atof(argv[i + 1]);
+      for (int j = i; j + 2 <= argc; ++j) argv[j] = argv[j + 2];
+      argc -= 2;
+      break;
+    }
   const bool from_preset = argc > 1 && std::strcmp(argv[1], "--preset") == 0;
   if (from_preset && argc < 5) {
     std::fprintf(stderr, "usage: decimate_bench --preset NAME RESOLUTION RATIO\n");
@@ -74,6 +87,28 @@ int main(int argc, char** argv) {
       if (argc == i + 1) --argc;  // not a positional argument
     }
   qjulia::DecimateReport rep;
+  if (cancel_after >= 0) {
+    qjulia::CancelToken token;
+    opts.cancel = &token;
+    std::chrono::steady_clock::time_point requested;
+    std::thread canceller([&] {
+      std::this_thread::sleep_for(std::chrono::duration<double>(cancel_after));
+      requested = std::chrono::steady_clock::now();
+      token.request();
+    });
+    try {
+      qjulia::decimate(mesh, opts, &rep);
+      canceller.join();
+      std::printf("decimate finished before the token was requested\n");
+    } catch (const qjulia::Cancelled&) {
+      const auto caught = std::chrono::steady_clock::now();
+      canceller.join();  // after it, `requested` may be read
+      const double latency = std::chrono::duration<double>(caught - requested).count();
+      std::printf("decimate: cancelled %.3f s after the request (requested at %.2f s)\n", latency,
+                  cancel_after);
+    }
+    return 0;
+  }
   t0 = std::chrono::steady_clock::now();
   const double c0 = cpu_seconds();
   qjulia::TriMesh out = qjulia::decimate(mesh, opts, &rep);

@@ -118,6 +118,7 @@ std::vector<std::array<uint32_t, 3>> simplify_manifold(const TriMesh& mesh,
   for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
     throw_if_cancelled(cancel);
     out.triangles = simplify_once(mesh, frozen, target_faces, rel_error);
+    throw_if_cancelled(cancel);
     out.positions.clear();  // check_topology only needs the vertex count
     out.positions.resize(mesh.positions.size());
     const auto topo = detail::check_topology(out, /*allow_boundary=*/true);
@@ -166,6 +167,7 @@ std::vector<std::array<uint32_t, 3>> simplify_chunks(const TriMesh& mesh, double
   std::vector<std::size_t> cut(chunks + 1);
   for (std::size_t c = 0; c <= chunks; ++c) cut[c] = nf * c / chunks;
   tbb::parallel_sort(order.begin(), order.end());
+  throw_if_cancelled(cancel);
   std::vector<std::vector<std::array<uint32_t, 3>>> results(chunks);
   tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
     throw_if_cancelled(cancel);
