@@ -29,6 +29,7 @@
 
 #include "base/geometry.h"
 #include "base/mesh_check.h"
+#include "mesh/decimate_openmesh.h"
 #include "mesh/hausdorff.h"
 #include "mesh/stage_progress.h"
 #include "qjulia/base/error.h"
@@ -208,9 +209,10 @@ struct Simplified {
   std::vector<uint32_t> to_input;
 };
 
-/// One decimation of `mesh` to the budget and the quadric bound `abs_error`: stage 1 (chunks,
-/// when `use_chunks`) and stage 2 (the whole mesh), keeping `pinned` input vertices and their
-/// faces. Its `out.mesh` is closed and manifold wherever the chunk-wise checks could see.
+/// One decimation of `mesh` to the budget and the bound `abs_error`, keeping `pinned` input
+/// vertices and their faces. Fast method: stage 1 (chunks, when `use_chunks`) and stage 2 (the
+/// whole mesh) with meshoptimizer's quadric bound; the result is closed and manifold wherever the
+/// chunk-wise checks could see. Quality method: OpenMesh with abs_error as its Hausdorff bound.
 Simplified simplify_all(const TriMesh& mesh, const DecimateOptions& opts, double abs_error,
                         bool use_chunks, const std::vector<uint8_t>& pinned) {
   const std::size_t nv = mesh.positions.size();
@@ -230,6 +232,18 @@ Simplified simplify_all(const TriMesh& mesh, const DecimateOptions& opts, double
       if (remap[i] != 0xffffffffu) next[remap[i]] = s.to_input[i];
     s.to_input.swap(next);
   };
+  if (opts.method == DecimateMethod::kQuality) {
+    detail::OpenMeshDecimation om;
+    om.target_faces = budget;
+    om.tolerance = opts.max_error ? abs_error : 0.0;
+    om.pinned = &pinned;
+    om.cancel = opts.cancel;
+    om.progress = [&opts](double f) { return !opts.progress || opts.progress(0.4 * f); };
+    work.triangles = detail::decimate_openmesh(mesh, om);
+    detail::report_progress(opts.progress, opts.cancel, 0.4);
+    compact();
+    return s;
+  }
   if (use_chunks) {
     // Stage 1 stops at 1.5 times the budget so that stage 2 has room to dissolve the seams.
     const double ratio = opts.faces ? std::min(1.0, 1.5 * budget / mesh.face_count()) : 0.0;
@@ -313,7 +327,7 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
   hopts.cancel = opts.cancel;
   detail::Hausdorff hausdorff(mesh, hopts);  // keeps the input's BVH between attempts
   Simplified best;
-  bool use_chunks = mesh.face_count() >= 2 * kChunkFaces;
+  bool use_chunks = opts.method == DecimateMethod::kFast && mesh.face_count() >= 2 * kChunkFaces;
   std::vector<uint8_t> pinned;  // input vertices kept with their stars (self-intersections)
   int intersection_rounds = 0;
   for (int attempt = 0; attempt < 10; ++attempt) {
