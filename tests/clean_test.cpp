@@ -218,11 +218,7 @@ TEST(Clean, ATokenRequestedDuringTheWorkCancelsAtTheNextCheck) {
     qjulia::CleanOptions opts;
     opts.cancel = &token;
     double last = -1;
-    opts.progress = [&](double f) {
-      last = f;
-      if (f >= at) token.request();
-      return true;
-    };
+    opts.progress = fixtures::request_at(at, token, last);
     EXPECT_THROW(qjulia::clean(fixtures::icosphere(4), opts), qjulia::Cancelled) << at;
     EXPECT_EQ(last, at);
   }

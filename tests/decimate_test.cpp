@@ -240,19 +240,15 @@ TEST(Decimate, ARequestedTokenCancelsBeforeAnyWork) {
 }
 
 TEST(Decimate, ATokenRequestedDuringTheWorkCancelsAtTheNextCheck) {
-  // The progress callback requests the token once the chunks are done (and itself never asks
-  // to stop): the stage must notice the token, not the callback.
+  // At the start, after the chunks and before the Hausdorff distance: the stage must notice the
+  // token (the callback never asks to stop).
   for (const double at : {0.0, 0.4, 0.7}) {
     qjulia::CancelToken token;
     qjulia::DecimateOptions opts;
     opts.faces = 20000;
     opts.cancel = &token;
     double last = -1;
-    opts.progress = [&](double f) {
-      last = f;
-      if (f >= at) token.request();
-      return true;
-    };
+    opts.progress = fixtures::request_at(at, token, last);
     EXPECT_THROW(qjulia::decimate(fixtures::noisy_sphere(7), opts), qjulia::Cancelled) << at;
     EXPECT_EQ(last, at);
   }

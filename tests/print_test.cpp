@@ -127,11 +127,7 @@ TEST(Thicken, ATokenRequestedDuringTheWorkCancelsAtTheNextCheck) {
     opts.min_thickness = 0.2;
     opts.cancel = &token;
     double last = -1;
-    opts.progress = [&](double f) {
-      last = f;
-      if (f >= at) token.request();
-      return true;
-    };
+    opts.progress = fixtures::request_at(at, token, last);
     EXPECT_THROW(qjulia::thicken(fixtures::icosphere(4), opts), qjulia::Cancelled) << at;
     EXPECT_EQ(last, at);
   }

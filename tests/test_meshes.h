@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "qjulia/base/mesh.h"
+#include "qjulia/base/progress.h"
 
 namespace fixtures {
 
@@ -200,6 +201,17 @@ inline Topology check(const TriMesh& m) {
   out.closed_manifold_oriented = ok;
   out.euler = (long long)verts.size() - (long long)edges + (long long)m.triangles.size();
   return out;
+}
+
+/// A progress callback that requests `token` once the reported fraction reaches `at` and never
+/// asks to stop itself (so a stage that stops must have checked the token); `last` receives the
+/// last fraction reported.
+inline qjulia::ProgressFn request_at(double at, qjulia::CancelToken& token, double& last) {
+  return [at, &token, &last](double f) {
+    last = f;
+    if (f >= at) token.request();
+    return true;
+  };
 }
 
 /// Signed volume by the divergence theorem.

@@ -1,5 +1,5 @@
 // decimate()'s quality method: OpenMesh's Decimater with the quadric, normal-flip and Hausdorff
-// modules. Slower than meshoptimizer (7-28x on the fractal meshes measured), but it tests the
+// modules. Slower than meshoptimizer (4-15x the CPU time on the meshes measured), but it tests the
 // link condition itself, so it keeps the topology and reaches face budgets where the guarded
 // meshoptimizer path stops early (docs/clean.md).
 #include "mesh/decimate_openmesh.h"

@@ -17,7 +17,7 @@ enum class DecimateMethod {
   kFast,
   /// OpenMesh's Decimater (ModQuadric order, ModNormalFlipping at 45 degrees, ModHausdorff with
   /// max_error): keeps the genus, reaches face budgets the fast method cannot on fractal meshes
-  /// and gives a lower error at the same face count; single-threaded, 7-30x slower.
+  /// and gives a lower error at the same face count; single-threaded, 4-15x the CPU time.
   kQuality,
 };
 
