@@ -1,6 +1,7 @@
 #pragma once
 /// @file mesh_check.h
-/// Small, fast topology checks used by clean, decimate and print (independent of measure()).
+/// Small, fast topology checks and edits of clean and decimate; the vertex-fan test is shared with
+/// measure().
 #include <cstddef>
 #include <cstdint>
 #include <vector>
