@@ -2,12 +2,14 @@
 #include "qjulia/mesh/clean.h"
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <cmath>
 
-#include "test_meshes.h"
 #include "qjulia/base/error.h"
+#include "qjulia/base/progress.h"
 #include "qjulia/mesh/print.h"
+#include "test_meshes.h"
 
 using qjulia::TriMesh;
 
@@ -185,4 +187,47 @@ TEST(Printability, ReportsTopologyVolumeAndBoxInMillimetres) {
   EXPECT_FALSE(r.closed);
   EXPECT_EQ(r.boundary_edges, 3u);
   EXPECT_FALSE(r.printable());
+}
+
+TEST(Clean, ResultDependsOnlyOnTheInputNotOnTheThreads) {
+  // A soup (every vertex welded), a collapsed edge, a zero-area cap and specks of dust.
+  TriMesh m = soup(fixtures::noisy_sphere(5));
+  for (int i = 0; i < 5; ++i) fixtures::append(m, fixtures::icosphere(2, 0.02, {3.0 + i, 0, 0}));
+  m.positions[m.triangles[100][1]] = m.positions[m.triangles[100][0]];
+  qjulia::CleanOptions opts;
+  opts.min_component_volume = 1e-4;
+  TriMesh out[3];
+  qjulia::CleanReport rep[3];
+  for (int threads = 1; threads <= 3; ++threads) {
+    tbb::task_arena arena(threads);
+    arena.execute([&] { out[threads - 1] = qjulia::clean(m, opts, &rep[threads - 1]); });
+  }
+  EXPECT_EQ(rep[0].removed_components, 5u);
+  EXPECT_GT(rep[0].merged_vertices, 0u);
+  for (int k = 1; k < 3; ++k) {
+    EXPECT_EQ(out[0].positions, out[k].positions);
+    EXPECT_EQ(out[0].triangles, out[k].triangles);
+    EXPECT_EQ(rep[0].merged_vertices, rep[k].merged_vertices);
+    EXPECT_EQ(rep[0].degenerate_faces_removed, rep[k].degenerate_faces_removed);
+  }
+}
+
+TEST(Clean, ATokenRequestedDuringTheWorkCancelsAtTheNextCheck) {
+  for (const double at : {0.0, 0.2, 0.5, 0.8}) {
+    qjulia::CancelToken token;
+    qjulia::CleanOptions opts;
+    opts.cancel = &token;
+    double last = -1;
+    opts.progress = fixtures::request_at(at, token, last);
+    EXPECT_THROW(qjulia::clean(fixtures::icosphere(4), opts), qjulia::Cancelled) << at;
+    EXPECT_EQ(last, at);
+  }
+}
+
+TEST(Printability, ARequestedTokenCancels) {
+  qjulia::CancelToken token;
+  token.request();
+  qjulia::PrintabilityOptions opts;
+  opts.cancel = &token;
+  EXPECT_THROW(qjulia::printability(fixtures::icosphere(3), opts), qjulia::Cancelled);
 }

@@ -3,6 +3,7 @@
 #include "qjulia/mesh/compare.h"
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -15,8 +16,8 @@
 #include <utility>
 
 #include "qjulia/base/error.h"
-#include "qjulia/io/mesh_io.h"
 #include "qjulia/field/params.h"
+#include "qjulia/io/mesh_io.h"
 #include "qjulia/pipeline/pipeline.h"
 #include "test_meshes.h"
 
@@ -385,4 +386,62 @@ TEST(CompareCli, ColoredWritesAWithItsDistanceRampAndTheLegend) {
   std::stringstream bytes;
   bytes << in.rdbuf();
   EXPECT_NE(bytes.str().find("legend_max"), std::string::npos);
+}
+
+TEST(Compare, ResultDependsOnlyOnTheInputNotOnTheThreads) {
+  const TriMesh a = fixtures::noisy_sphere(4), b = shifted(icosphere(5), 0.01f, 0, 0);
+  qjulia::CompareResult r[3];
+  for (int threads = 1; threads <= 3; ++threads) {
+    tbb::task_arena arena(threads);
+    arena.execute([&] { r[threads - 1] = qjulia::compare(a, b, small_options()); });
+  }
+  for (int k = 1; k < 3; ++k) {
+    EXPECT_EQ(r[0].hausdorff, r[k].hausdorff);
+    EXPECT_EQ(r[0].a_to_b.mean, r[k].a_to_b.mean);
+    EXPECT_EQ(r[0].b_to_a.rms, r[k].b_to_a.rms);
+    EXPECT_EQ(r[0].a_vertex_distance, r[k].a_vertex_distance);
+    EXPECT_EQ(qjulia::compare_to_json(r[0]), qjulia::compare_to_json(r[k]));
+  }
+}
+
+TEST(Compare, ATokenRequestedDuringTheQueriesCancels) {
+  qjulia::CancelToken token;
+  auto o = small_options();
+  o.cancel = &token;
+  o.progress = [&](double f) {
+    if (f >= 0.1) token.request();  // after the set-up, before the distance queries
+    return true;
+  };
+  EXPECT_THROW(qjulia::compare(icosphere(4), icosphere(3), o), qjulia::Cancelled);
+  token.reset();
+  token.request();
+  o.progress = nullptr;
+  EXPECT_THROW(qjulia::compare(icosphere(4), icosphere(3), o), qjulia::Cancelled);
+}
+
+TEST(Compare, DistancesAreExactForATinyDetailedPartBesideALargeOne) {
+  // The tiny sphere's 1280 faces share one cell of the BVH's Morton grid (1/1024 of the box),
+  // so they are split by the surface area heuristic: distances stay exact. The corner of a
+  // cube shifted by s is farthest from the cube, at |s|; the tiny sphere moves by s too.
+  TriMesh a = cube();
+  fixtures::append(a, icosphere(3, 1e-4, {0.5, 0.5, 0.5}));
+  const float s = 0.01f;
+  const auto r = qjulia::compare(a, shifted(a, s, 0, 0), small_options());
+  EXPECT_NEAR(r.hausdorff, s, 1e-6);
+  // The tiny sphere's vertices are nearest to the shifted tiny sphere (the walls are 0.5 away):
+  // about s from it (its radius is 1e-4).
+  for (std::size_t v = 8; v < a.vertex_count(); ++v) EXPECT_NEAR(r.a_vertex_distance[v], s, 2e-4);
+}
+
+TEST(Compare, JsonHasTheStatsKeysOfEachSurface) {
+  const auto r = qjulia::compare(cube(), icosphere(2), small_options());
+  const std::string json = qjulia::compare_to_json(r);
+  for (const char* key :
+       {"\"vertices\"", "\"faces\"", "\"edges\"", "\"closed\"", "\"manifold\"", "\"oriented\"",
+        "\"boundary_edges\"", "\"nonmanifold_edges\"", "\"nonmanifold_vertices\"",
+        "\"degenerate_faces\"", "\"volume\"", "\"area\"", "\"euler\"", "\"components\": 1",
+        "\"bbox\"", "\"min\"", "\"max\"", "\"genus_summary\"", "\"component_measures\""})
+    EXPECT_NE(json.find(key), std::string::npos) << key;
+  EXPECT_EQ(json.find("bbox_min"), std::string::npos);
+  EXPECT_EQ(json.find("component_count"), std::string::npos);
 }

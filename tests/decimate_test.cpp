@@ -2,12 +2,16 @@
 #include "qjulia/mesh/decimate.h"
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
 
-#include "test_meshes.h"
 #include "qjulia/base/error.h"
+#include "qjulia/base/progress.h"
+#include "qjulia/field/params.h"
+#include "qjulia/pipeline/pipeline.h"
+#include "test_meshes.h"
 
 using qjulia::TriMesh;
 
@@ -180,4 +184,193 @@ TEST(Decimate, AvoidSelfIntersectionsReportsAndKeepsTheResultClosed) {
   EXPECT_EQ(*rep.self_intersections, 0u);
   EXPECT_TRUE(fixtures::check(out).closed_manifold_oriented);
   EXPECT_LE(out.face_count(), 2000u);
+}
+
+namespace {
+/// Decimates `mesh` on `threads` threads.
+TriMesh decimate_on(int threads, const TriMesh& mesh, const qjulia::DecimateOptions& opts,
+                    qjulia::DecimateReport* rep) {
+  tbb::task_arena arena(threads);
+  TriMesh out;
+  arena.execute([&] { out = qjulia::decimate(mesh, opts, rep); });
+  return out;
+}
+}  // namespace
+
+TEST(Decimate, ResultDependsOnlyOnTheInputNotOnTheThreads) {
+  // 327,680 faces: the chunked path (chunks simplified in parallel, then joined).
+  const TriMesh bumpy = fixtures::noisy_sphere(7);
+  qjulia::DecimateOptions opts;
+  opts.faces = 30000;
+  qjulia::DecimateReport one, two, three;
+  const TriMesh a = decimate_on(1, bumpy, opts, &one);
+  const TriMesh b = decimate_on(2, bumpy, opts, &two);
+  const TriMesh c = decimate_on(3, bumpy, opts, &three);
+  ASSERT_LE(a.face_count(), 30000u);
+  EXPECT_GT(a.face_count(), 25000u);
+  EXPECT_EQ(a.positions, b.positions);
+  EXPECT_EQ(a.triangles, b.triangles);
+  EXPECT_EQ(a.positions, c.positions);
+  EXPECT_EQ(a.triangles, c.triangles);
+  EXPECT_EQ(one.hausdorff, two.hausdorff);
+  EXPECT_EQ(one.hausdorff, three.hausdorff);
+}
+
+TEST(Decimate, ErrorBoundResultDependsOnlyOnTheInputNotOnTheThreads) {
+  const TriMesh bumpy = fixtures::noisy_sphere(7);
+  qjulia::DecimateOptions opts;
+  opts.max_error = 0.01;
+  qjulia::DecimateReport one, two;
+  const TriMesh a = decimate_on(1, bumpy, opts, &one);
+  const TriMesh b = decimate_on(2, bumpy, opts, &two);
+  EXPECT_LT(a.face_count(), bumpy.face_count() / 2);
+  EXPECT_LE(one.hausdorff, 0.01);
+  EXPECT_EQ(a.positions, b.positions);
+  EXPECT_EQ(a.triangles, b.triangles);
+  EXPECT_EQ(one.hausdorff, two.hausdorff);
+}
+
+TEST(Decimate, ARequestedTokenCancelsBeforeAnyWork) {
+  qjulia::CancelToken token;
+  token.request();
+  qjulia::DecimateOptions opts;
+  opts.faces = 100;
+  opts.cancel = &token;
+  EXPECT_THROW(qjulia::decimate(fixtures::icosphere(3), opts), qjulia::Cancelled);
+}
+
+TEST(Decimate, ATokenRequestedDuringTheWorkCancelsAtTheNextCheck) {
+  // At the start, after the chunks and before the Hausdorff distance: the stage must notice the
+  // token (the callback never asks to stop).
+  for (const double at : {0.0, 0.4, 0.7}) {
+    qjulia::CancelToken token;
+    qjulia::DecimateOptions opts;
+    opts.faces = 20000;
+    opts.cancel = &token;
+    double last = -1;
+    opts.progress = fixtures::request_at(at, token, last);
+    EXPECT_THROW(qjulia::decimate(fixtures::noisy_sphere(7), opts), qjulia::Cancelled) << at;
+    EXPECT_EQ(last, at);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The quality method (OpenMesh's Decimater).
+
+namespace {
+qjulia::DecimateOptions quality(std::optional<long long> faces, std::optional<double> max_error) {
+  qjulia::DecimateOptions opts;
+  opts.method = qjulia::DecimateMethod::kQuality;
+  opts.faces = faces;
+  opts.max_error = max_error;
+  return opts;
+}
+}  // namespace
+
+TEST(DecimateQuality, UnitSphereTo2000FacesStaysClosedManifoldAndOnTheSphere) {
+  TriMesh sphere = fixtures::uv_sphere(128, 128);
+  qjulia::DecimateReport rep;
+  TriMesh out = qjulia::decimate(sphere, quality(2000, std::nullopt), &rep);
+  EXPECT_LE(out.face_count(), 2000u);
+  EXPECT_GE(out.face_count(), 1990u);
+  EXPECT_TRUE(rep.target_reached);
+  EXPECT_TRUE(rep.closed);
+  EXPECT_TRUE(rep.manifold);
+  auto topo = fixtures::check(out);
+  EXPECT_TRUE(topo.closed_manifold_oriented);
+  EXPECT_EQ(topo.euler, 2);
+  for (const auto& p : out.positions)  // input vertices: on the sphere
+    EXPECT_NEAR(std::sqrt(double(p[0]) * p[0] + double(p[1]) * p[1] + double(p[2]) * p[2]), 1.0,
+                1e-6);
+  const double to_sphere = max_distance_to_unit_sphere(out);
+  EXPECT_NEAR(rep.hausdorff, to_sphere, 0.25 * to_sphere + 2e-4);
+}
+
+TEST(DecimateQuality, MaxErrorBoundHoldsByIndependentDenseSampling) {
+  TriMesh sphere = fixtures::uv_sphere(100, 100);
+  const double input_error = 1.0 - std::cos(std::acos(-1.0) / 100);
+  qjulia::DecimateReport rep;
+  TriMesh out = qjulia::decimate(sphere, quality(std::nullopt, 0.004), &rep);
+  EXPECT_LT(out.face_count(), sphere.face_count() / 5);  // it did simplify
+  EXPECT_TRUE(fixtures::check(out).closed_manifold_oriented);
+  EXPECT_LE(rep.hausdorff, 0.004);
+  EXPECT_TRUE(rep.target_reached);
+  EXPECT_LE(max_distance_to_unit_sphere(out), 0.004 - input_error);
+  double worst = 0;
+  for (std::size_t v = 0; v < sphere.positions.size(); v += 3)
+    worst = std::max(worst, point_mesh(at(sphere, uint32_t(v)), out));
+  EXPECT_LE(worst, 0.004);
+}
+
+TEST(DecimateQuality, KeepsTheGenusOfATorusDecimatedHard) {
+  const TriMesh torus = fixtures::torus(200, 100, 0.05);  // 40,000 faces, genus 1
+  qjulia::DecimateReport rep;
+  TriMesh out = qjulia::decimate(torus, quality(400, std::nullopt), &rep);
+  EXPECT_LE(out.face_count(), 400u);
+  auto topo = fixtures::check(out);
+  EXPECT_TRUE(topo.closed_manifold_oriented);
+  EXPECT_EQ(topo.euler, 0);
+}
+
+TEST(DecimateQuality, KeepsTheGenusOfAFractalMesh) {
+  qjulia::Params params = qjulia::preset("classic-julia");
+  params.resolution = 64;
+  const TriMesh mesh = qjulia::run_pipeline(params).mesh;
+  const auto before = fixtures::check(mesh);
+  ASSERT_TRUE(before.closed_manifold_oriented);
+  const auto budget = static_cast<long long>(mesh.face_count() / 5);
+  qjulia::DecimateReport rep;
+  TriMesh out = qjulia::decimate(mesh, quality(budget, std::nullopt), &rep);
+  EXPECT_LE(static_cast<long long>(out.face_count()), budget);
+  EXPECT_TRUE(rep.target_reached);
+  const auto after = fixtures::check(out);
+  EXPECT_TRUE(after.closed_manifold_oriented);
+  EXPECT_EQ(after.euler, before.euler);
+  EXPECT_NEAR(fixtures::volume(out), fixtures::volume(mesh), 0.02 * fixtures::volume(mesh));
+}
+
+TEST(DecimateQuality, LeavesANonManifoldPartAsItIsAndPrintsNothing) {
+  // Two spheres touching in one vertex: that vertex is non-manifold. Its faces are kept as
+  // they are, the rest is decimated, and OpenMesh's complaints never reach stderr.
+  TriMesh m = fixtures::uv_sphere(40, 40);
+  TriMesh other = fixtures::uv_sphere(40, 40);
+  const uint32_t north = 0, offset = static_cast<uint32_t>(m.positions.size());
+  for (auto& p : other.positions) p[2] += 2.0f;  // its south pole lands on the north pole
+  fixtures::append(m, other);
+  const uint32_t south = offset + static_cast<uint32_t>(other.positions.size()) - 1;
+  for (auto& t : m.triangles)
+    for (auto& v : t)
+      if (v == south) v = north;
+  testing::internal::CaptureStderr();
+  qjulia::DecimateReport rep;
+  TriMesh out = qjulia::decimate(m, quality(600, std::nullopt), &rep);
+  EXPECT_EQ(testing::internal::GetCapturedStderr(), "");
+  EXPECT_LE(out.face_count(), 600u);
+  EXPECT_TRUE(rep.closed);
+  std::size_t around_north = 0;
+  for (const auto& t : out.triangles)
+    around_north += t[0] == north || t[1] == north || t[2] == north;
+  EXPECT_EQ(around_north, 80u);  // both fans of the pinch, unchanged
+}
+
+TEST(DecimateQuality, ResultDependsOnlyOnTheInputNotOnTheThreads) {
+  const TriMesh bumpy = fixtures::noisy_sphere(4);
+  qjulia::DecimateReport one, two;
+  const TriMesh a = decimate_on(1, bumpy, quality(1000, 0.03), &one);
+  const TriMesh b = decimate_on(2, bumpy, quality(1000, 0.03), &two);
+  EXPECT_LT(a.face_count(), bumpy.face_count() / 2);
+  EXPECT_EQ(a.positions, b.positions);
+  EXPECT_EQ(a.triangles, b.triangles);
+  EXPECT_EQ(one.hausdorff, two.hausdorff);
+}
+
+TEST(DecimateQuality, ATokenRequestedDuringTheCollapsesCancels) {
+  qjulia::CancelToken token;
+  auto opts = quality(1000, std::nullopt);
+  opts.cancel = &token;
+  opts.progress = [&](double f) {
+    if (f > 0.1) token.request();  // during the collapses (they report 0 to 0.4)
+    return true;
+  };
+  EXPECT_THROW(qjulia::decimate(fixtures::noisy_sphere(6), opts), qjulia::Cancelled);
 }

@@ -1,6 +1,4 @@
 // Round trips through every writer and reader, and the failure paths of write_mesh/read_mesh.
-#include "qjulia/io/mesh_io.h"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -13,6 +11,7 @@
 #include <set>
 
 #include "qjulia/base/error.h"
+#include "qjulia/io/mesh_io.h"
 #include "test_meshes.h"
 
 namespace fs = std::filesystem;

@@ -6,8 +6,9 @@
 #include <algorithm>
 #include <cmath>
 
-#include "test_meshes.h"
 #include "qjulia/base/error.h"
+#include "qjulia/base/progress.h"
+#include "test_meshes.h"
 
 using qjulia::TriMesh;
 
@@ -115,4 +116,19 @@ TEST(Thicken, RejectsNonPositiveThickness) {
   EXPECT_THROW(qjulia::thicken(m, opts), qjulia::InvalidInput);
   opts.min_thickness = -1;
   EXPECT_THROW(qjulia::thicken(m, opts), qjulia::InvalidInput);
+}
+
+TEST(Thicken, ATokenRequestedDuringTheWorkCancelsAtTheNextCheck) {
+  // Requested after the distance field (0.2) and after the erosion (0.3): OpenVDB's tools are
+  // interrupted through the token, and thicken throws.
+  for (const double at : {0.0, 0.2, 0.3}) {
+    qjulia::CancelToken token;
+    qjulia::ThickenOptions opts;
+    opts.min_thickness = 0.2;
+    opts.cancel = &token;
+    double last = -1;
+    opts.progress = fixtures::request_at(at, token, last);
+    EXPECT_THROW(qjulia::thicken(fixtures::icosphere(4), opts), qjulia::Cancelled) << at;
+    EXPECT_EQ(last, at);
+  }
 }

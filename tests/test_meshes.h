@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "qjulia/base/mesh.h"
+#include "qjulia/base/progress.h"
 
 namespace fixtures {
 
@@ -113,6 +114,27 @@ inline TriMesh noisy_sphere(int level) {
   return m;
 }
 
+/// A torus (major radius 1, minor radius 0.35 + bump * sin(5u) sin(7v)) tessellated as an n by m
+/// grid of quads: 2nm faces, closed, genus 1 (Euler 0).
+inline TriMesh torus(int n, int m, double bump = 0.0) {
+  TriMesh t;
+  const double pi = std::acos(-1.0);
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < m; ++j) {
+      const double u = 2 * pi * i / n, v = 2 * pi * j / m;
+      const double r = 0.35 + bump * std::sin(5 * u) * std::sin(7 * v);
+      t.positions.push_back({float((1 + r * std::cos(v)) * std::cos(u)),
+                             float((1 + r * std::cos(v)) * std::sin(u)), float(r * std::sin(v))});
+    }
+  auto id = [&](int i, int j) { return uint32_t((i % n) * m + (j % m)); };
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < m; ++j) {
+      t.triangles.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
+      t.triangles.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
+    }
+  return t;
+}
+
 /// Axis-aligned box [lo, hi], 12 outward triangles.
 inline TriMesh box(std::array<double, 3> lo, std::array<double, 3> hi) {
   TriMesh m;
@@ -179,6 +201,17 @@ inline Topology check(const TriMesh& m) {
   out.closed_manifold_oriented = ok;
   out.euler = (long long)verts.size() - (long long)edges + (long long)m.triangles.size();
   return out;
+}
+
+/// A progress callback that requests `token` once the reported fraction reaches `at` and never
+/// asks to stop itself (so a stage that stops must have checked the token); `last` receives the
+/// last fraction reported.
+inline qjulia::ProgressFn request_at(double at, qjulia::CancelToken& token, double& last) {
+  return [at, &token, &last](double f) {
+    last = f;
+    if (f >= at) token.request();
+    return true;
+  };
 }
 
 /// Signed volume by the divergence theorem.

@@ -16,32 +16,12 @@
 #include <string>
 #include <thread>
 
-#include "qjulia/mesh/compare.h"
+#include "../test_meshes.h"
 #include "qjulia/field/params.h"
+#include "qjulia/mesh/compare.h"
 #include "qjulia/pipeline/pipeline.h"
 
 namespace {
-
-// A torus (major radius 1, minor radius 0.35 + bump) tessellated as an n by m grid of quads.
-qjulia::TriMesh torus(int n, int m, double bump) {
-  qjulia::TriMesh t;
-  const double kPi = 3.14159265358979323846;
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < m; ++j) {
-      const double u = 2 * kPi * i / n, v = 2 * kPi * j / m;
-      const double r = 0.35 + bump * std::sin(5 * u) * std::sin(7 * v);
-      t.positions.push_back({static_cast<float>((1 + r * std::cos(v)) * std::cos(u)),
-                             static_cast<float>((1 + r * std::cos(v)) * std::sin(u)),
-                             static_cast<float>(r * std::sin(v))});
-    }
-  auto id = [&](int i, int j) { return static_cast<uint32_t>((i % n) * m + (j % m)); };
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < m; ++j) {
-      t.triangles.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
-      t.triangles.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
-    }
-  return t;
-}
 
 // CPU seconds of this process (all threads): the work, whatever else loads the machine.
 double cpu_seconds() {
@@ -90,8 +70,8 @@ int main(int argc, char** argv) {
     // A: a 2:1 grid, B: a square grid with a bump, both with about `faces` triangles.
     const int an = static_cast<int>(std::sqrt(static_cast<double>(faces)));
     const int bn = static_cast<int>(std::sqrt(faces / 2.0));
-    a = torus(an, static_cast<int>(faces / 2 / an), 0.0);
-    b = torus(bn, bn, 0.02);
+    a = fixtures::torus(an, static_cast<int>(faces / 2 / an), 0.0);
+    b = fixtures::torus(bn, bn, 0.02);
   }
 
   double setup = 0, setup_cpu = 0;

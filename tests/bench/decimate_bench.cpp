@@ -1,9 +1,13 @@
 // Decimation benchmark: a bumpy icosphere (level 9: 5.24M faces) decimated to 10%; prints input
 // faces per second and the peak RSS.
 // Usage: decimate_bench [LEVEL] [RATIO] [--self-intersections]   (RATIO < 0: max_error = -RATIO)
-//        ... --avoid-self-intersections (last argument): DecimateOptions::avoid_self_intersections
+//        ... --avoid-self-intersections: DecimateOptions::avoid_self_intersections
 //        decimate_bench --preset NAME RESOLUTION RATIO [SIZE_MM MIN_THICKNESS_MM]
 //          (a real fractal mesh from the pipeline; optionally then scaled and thickened)
+//        ... --quality: DecimateMethod::kQuality (OpenMesh) instead of the fast method
+//        ... --compare: also prints compare()'s distances between the input and the output
+//        ... --cancel-after SECONDS: requests the cancel token that long into decimate() and
+//          prints how long decimate() took to throw Cancelled after that
 #include <sys/resource.h>
 
 #include <chrono>
@@ -11,13 +15,17 @@
 #include <cstdlib>
 #include <cstring>
 #include <string>
+#include <thread>
 
 #include "../test_meshes.h"
-#include "qjulia/mesh/clean.h"
-#include "qjulia/mesh/decimate.h"
+#include "qjulia/base/error.h"
+#include "qjulia/base/progress.h"
 #include "qjulia/field/params.h"
-#include "qjulia/pipeline/pipeline.h"
+#include "qjulia/mesh/clean.h"
+#include "qjulia/mesh/compare.h"
+#include "qjulia/mesh/decimate.h"
 #include "qjulia/mesh/print.h"
+#include "qjulia/pipeline/pipeline.h"
 
 namespace {
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -35,7 +43,32 @@ long peak_rss_mb() {
 }
 }  // namespace
 
+// Removes the flag argv[i] and its `values` values from the arguments.
+void take(int& argc, char** argv, int i, int values) {
+  for (int j = i; j + values + 1 <= argc; ++j) argv[j] = argv[j + values + 1];
+  argc -= values + 1;
+}
+
 int main(int argc, char** argv) {
+  double cancel_after = -1;  // the flags, taken out of the positional arguments
+  bool quality = false, with_compare = false, avoid_self_intersections = false;
+  for (int i = 1; i < argc;) {
+    if (i + 1 < argc && std::strcmp(argv[i], "--cancel-after") == 0) {
+      cancel_after = std::atof(argv[i + 1]);
+      take(argc, argv, i, 1);
+    } else if (std::strcmp(argv[i], "--quality") == 0) {
+      quality = true;
+      take(argc, argv, i, 0);
+    } else if (std::strcmp(argv[i], "--avoid-self-intersections") == 0) {
+      avoid_self_intersections = true;
+      take(argc, argv, i, 0);
+    } else if (std::strcmp(argv[i], "--compare") == 0) {
+      with_compare = true;
+      take(argc, argv, i, 0);
+    } else {
+      ++i;
+    }
+  }
   const bool from_preset = argc > 1 && std::strcmp(argv[1], "--preset") == 0;
   if (from_preset && argc < 5) {
     std::fprintf(stderr, "usage: decimate_bench --preset NAME RESOLUTION RATIO\n");
@@ -64,16 +97,35 @@ int main(int argc, char** argv) {
   std::printf("clean: %.2f s (%.2f M faces/s), %zu components\n", tc, mesh.face_count() / tc / 1e6,
               cr.components_after);
   qjulia::DecimateOptions opts;
+  if (quality) opts.method = qjulia::DecimateMethod::kQuality;
   if (ratio > 0)
     opts.faces = static_cast<long long>(mesh.face_count() * ratio);
   else
     opts.max_error = -ratio;  // a negative RATIO is an error bound instead of a face ratio
-  for (int i = 1; i < argc; ++i)
-    if (std::strcmp(argv[i], "--avoid-self-intersections") == 0) {
-      opts.avoid_self_intersections = true;
-      if (argc == i + 1) --argc;  // not a positional argument
-    }
+  opts.avoid_self_intersections = avoid_self_intersections;
   qjulia::DecimateReport rep;
+  if (cancel_after >= 0) {
+    qjulia::CancelToken token;
+    opts.cancel = &token;
+    std::chrono::steady_clock::time_point requested;
+    std::thread canceller([&] {
+      std::this_thread::sleep_for(std::chrono::duration<double>(cancel_after));
+      requested = std::chrono::steady_clock::now();
+      token.request();
+    });
+    try {
+      qjulia::decimate(mesh, opts, &rep);
+      canceller.join();
+      std::printf("decimate finished before the token was requested\n");
+    } catch (const qjulia::Cancelled&) {
+      const auto caught = std::chrono::steady_clock::now();
+      canceller.join();  // after it, `requested` may be read
+      const double latency = std::chrono::duration<double>(caught - requested).count();
+      std::printf("decimate: cancelled %.3f s after the request (requested at %.2f s)\n", latency,
+                  cancel_after);
+    }
+    return 0;
+  }
   t0 = std::chrono::steady_clock::now();
   const double c0 = cpu_seconds();
   qjulia::TriMesh out = qjulia::decimate(mesh, opts, &rep);
@@ -87,6 +139,11 @@ int main(int argc, char** argv) {
       topo.closed_manifold_oriented ? "yes" : "NO", topo.euler, peak_rss_mb());
   if (rep.self_intersections)
     std::printf("self-intersecting pairs left: %zu\n", *rep.self_intersections);
+  if (with_compare) {
+    const auto r = qjulia::compare(mesh, out);
+    std::printf("compare: hausdorff %.5f (input -> output %.5f, output -> input %.5f), mean %.6f\n",
+                r.hausdorff, r.a_to_b.max, r.b_to_a.max, 0.5 * (r.a_to_b.mean + r.b_to_a.mean));
+  }
   if (self) {
     t0 = std::chrono::steady_clock::now();
     const double c1 = cpu_seconds();

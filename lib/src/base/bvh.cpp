@@ -1,15 +1,43 @@
 #include "base/bvh.h"
 
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
+
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <limits>
+
+#include "base/geometry.h"
 
 namespace qjulia::detail {
 
 namespace {
 
-inline float dot3(const float a[3], const float b[3]) {
-  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+using Node = TriangleBvh::Node;
+
+struct Box {
+  float lo[3], hi[3];
+};
+
+inline void make_empty(float lo[3], float hi[3]) {
+  for (int k = 0; k < 3; ++k) {
+    lo[k] = std::numeric_limits<float>::max();
+    hi[k] = std::numeric_limits<float>::lowest();
+  }
+}
+
+inline void grow(float lo[3], float hi[3], const float blo[3], const float bhi[3]) {
+  for (int k = 0; k < 3; ++k) {
+    lo[k] = std::min(lo[k], blo[k]);
+    hi[k] = std::max(hi[k], bhi[k]);
+  }
+}
+
+// Half the surface area of a box (0 for an empty one).
+inline float half_area(const float lo[3], const float hi[3]) {
+  const float x = hi[0] - lo[0], y = hi[1] - lo[1], z = hi[2] - lo[2];
+  return x < 0 ? 0.0f : x * y + y * z + z * x;
 }
 
 // Squared distance from p to the box [lo, hi] (0 inside).
@@ -22,219 +50,314 @@ inline float box_distance_sq(const float p[3], const float lo[3], const float hi
   return d;
 }
 
-}  // namespace
+using Positions = std::vector<std::array<float, 3>>;
+using Triangles = std::vector<std::array<uint32_t, 3>>;
 
-float point_triangle_distance_sq(const float p[3], const float a[3], const float ab[3],
-                                 const float ac[3]) {
-  const float ap[3] = {p[0] - a[0], p[1] - a[1], p[2] - a[2]};
-  const float d1 = dot3(ab, ap), d2 = dot3(ac, ap);
-  auto dist_to = [&](float s, float t) {  // |a + s ab + t ac - p|^2
-    float d = 0;
-    for (int k = 0; k < 3; ++k) {
-      const float e = s * ab[k] + t * ac[k] - ap[k];
-      d += e * e;
-    }
-    return d;
-  };
-  if (d1 <= 0 && d2 <= 0) return dot3(ap, ap);  // vertex a
-  const float bp[3] = {ap[0] - ab[0], ap[1] - ab[1], ap[2] - ab[2]};
-  const float d3 = dot3(ab, bp), d4 = dot3(ac, bp);
-  if (d3 >= 0 && d4 <= d3) return dot3(bp, bp);  // vertex b
-  const float vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return dist_to(d1 / (d1 - d3), 0);  // edge ab
-  const float cp[3] = {ap[0] - ac[0], ap[1] - ac[1], ap[2] - ac[2]};
-  const float d5 = dot3(ab, cp), d6 = dot3(ac, cp);
-  if (d6 >= 0 && d5 <= d6) return dot3(cp, cp);  // vertex c
-  const float vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return dist_to(0, d2 / (d2 - d6));  // edge ac
-  const float va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {  // edge bc
-    const float w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
-    return dist_to(1 - w, w);
+Box triangle_box(const Positions& positions, const std::array<uint32_t, 3>& t) {
+  Box b;
+  for (int k = 0; k < 3; ++k) {
+    b.lo[k] = std::min({positions[t[0]][k], positions[t[1]][k], positions[t[2]][k]});
+    b.hi[k] = std::max({positions[t[0]][k], positions[t[1]][k], positions[t[2]][k]});
   }
-  const float sum = va + vb + vc;
-  if (!(sum > 0)) {  // a degenerate triangle: the closest of its three edges
-    auto seg = [&](const float o[3], const float dir[3]) {
-      const float len = dot3(dir, dir);
-      const float q[3] = {p[0] - o[0], p[1] - o[1], p[2] - o[2]};
-      const float t = len > 0 ? std::clamp(dot3(q, dir) / len, 0.0f, 1.0f) : 0.0f;
-      float d = 0;
-      for (int k = 0; k < 3; ++k) {
-        const float e = q[k] - t * dir[k];
-        d += e * e;
-      }
-      return d;
-    };
-    const float b[3] = {a[0] + ab[0], a[1] + ab[1], a[2] + ab[2]};
-    const float bc[3] = {ac[0] - ab[0], ac[1] - ab[1], ac[2] - ab[2]};
-    return std::min({seg(a, ab), seg(a, ac), seg(b, bc)});
-  }
-  const float denom = 1.0f / sum;
-  return std::max(dist_to(vb * denom, vc * denom), 0.0f);  // inside the face
+  return b;
 }
+
+// The box of a set of triangles and the box of their centres (times two).
+struct Bounds {
+  Box box, centres;
+  uint32_t count = 0;
+  void clear() {
+    make_empty(box.lo, box.hi);
+    make_empty(centres.lo, centres.hi);
+    count = 0;
+  }
+  void add(const Box& b) {
+    float c[3];
+    for (int k = 0; k < 3; ++k) c[k] = b.lo[k] + b.hi[k];
+    grow(box.lo, box.hi, b.lo, b.hi);
+    grow(centres.lo, centres.hi, c, c);
+    ++count;
+  }
+  void add(const Bounds& o) {
+    grow(box.lo, box.hi, o.box.lo, o.box.hi);
+    grow(centres.lo, centres.hi, o.centres.lo, o.centres.hi);
+    count += o.count;
+  }
+};
+
+// Appends a subtree built on its own, moving its child links by its new offset.
+void splice(std::vector<Node>& out, const std::vector<Node>& sub) {
+  const uint32_t offset = static_cast<uint32_t>(out.size());
+  for (Node n : sub) {
+    if (n.count == 0) n.first += offset;
+    out.push_back(n);
+  }
+}
+
+Node make_node(const Bounds& bounds, uint32_t first, uint32_t count) {
+  Node node;
+  for (int k = 0; k < 3; ++k) {
+    node.lo[k] = bounds.box.lo[k];
+    node.hi[k] = bounds.box.hi[k];
+  }
+  node.first = first;
+  node.count = count;
+  return node;
+}
+
+// The surface area heuristic build of a small set of triangles whose centres share one Morton
+// code: binned along the widest axis of the centres, the split that minimises
+// area(left) * count(left) + area(right) * count(right) (the expected work of a query), the
+// median when no split helps.
+class SahBuilder {
+ public:
+  struct Ref {
+    Box box;
+    uint32_t face;
+  };
+
+  // `refs` are the triangles of the slots first, first + 1, ... of the tree.
+  SahBuilder(std::vector<Ref>& refs, uint32_t first) : refs_(refs), first_(first) {}
+
+  // Appends the subtree of refs[begin, end) (whose bounds are `bounds`) to `out`; returns the
+  // index of its root.
+  uint32_t build(uint32_t begin, uint32_t end, const Bounds& bounds, int depth,
+                 std::vector<Node>& out) {
+    const uint32_t index = static_cast<uint32_t>(out.size());
+    out.push_back(make_node(bounds, first_ + begin, end - begin));
+    const float* clo = bounds.centres.lo;
+    const float* chi = bounds.centres.hi;
+    int axis = 0;
+    for (int k = 1; k < 3; ++k)
+      if (chi[k] - clo[k] > chi[axis] - clo[axis]) axis = k;
+    if (end - begin <= static_cast<uint32_t>(TriangleBvh::kLeafSize) || depth > 60 ||
+        !(chi[axis] > clo[axis]))  // small, too deep, or all centres at one point: a leaf
+      return index;
+    Bounds left, right;
+    const uint32_t mid = split(begin, end, bounds, axis, left, right);
+    build(begin, mid, left, depth + 1, out);  // the left child is index + 1
+    const uint32_t right_child = build(mid, end, right, depth + 1, out);
+    out[index].first = right_child;
+    out[index].count = 0;
+    return index;
+  }
+
+ private:
+  static constexpr int kBins = 16;
+
+  static int bin_of(const Box& b, int ax, float lo, float scale) {
+    return std::min(kBins - 1, static_cast<int>((b.lo[ax] + b.hi[ax] - lo) * scale));
+  }
+
+  // Partitions refs[begin, end), fills the bounds of both sides and returns the first index of
+  // the right side.
+  uint32_t split(uint32_t begin, uint32_t end, const Bounds& bounds, int axis, Bounds& left,
+                 Bounds& right) {
+    const float lo = bounds.centres.lo[axis];
+    const float scale = kBins / (bounds.centres.hi[axis] - lo);  // the extent is > 0
+    Bounds bins[kBins];
+    for (auto& b : bins) b.clear();
+    for (uint32_t i = begin; i < end; ++i)
+      bins[bin_of(refs_[i].box, axis, lo, scale)].add(refs_[i].box);
+    // Sweep from the right to get the cost of every right side, then from the left.
+    float right_cost[kBins];
+    Bounds acc;
+    acc.clear();
+    for (int b = kBins - 1; b > 0; --b) {
+      acc.add(bins[b]);
+      right_cost[b] = acc.count ? half_area(acc.box.lo, acc.box.hi) * acc.count : 0;
+    }
+    float best_cost = std::numeric_limits<float>::max();
+    int best_bin = -1;
+    acc.clear();
+    for (int b = 0; b + 1 < kBins; ++b) {
+      acc.add(bins[b]);
+      if (acc.count == 0 || acc.count == end - begin) continue;
+      const float cost = half_area(acc.box.lo, acc.box.hi) * acc.count + right_cost[b + 1];
+      if (cost < best_cost) {
+        best_cost = cost;
+        best_bin = b;
+      }
+    }
+    left.clear();
+    right.clear();
+    if (best_bin >= 0) {
+      for (int b = 0; b < kBins; ++b) (b <= best_bin ? left : right).add(bins[b]);
+      auto it = std::partition(refs_.begin() + begin, refs_.begin() + end, [&](const Ref& r) {
+        return bin_of(r.box, axis, lo, scale) <= best_bin;
+      });
+      return static_cast<uint32_t>(it - refs_.begin());
+    }
+    // No useful split (all centres in one bin): the median.
+    const uint32_t mid = begin + (end - begin) / 2;
+    std::nth_element(refs_.begin() + begin, refs_.begin() + mid, refs_.begin() + end,
+                     [&](const Ref& x, const Ref& y) {
+                       return x.box.lo[axis] + x.box.hi[axis] < y.box.lo[axis] + y.box.hi[axis];
+                     });
+    for (uint32_t i = begin; i < mid; ++i) left.add(refs_[i].box);
+    for (uint32_t i = mid; i < end; ++i) right.add(refs_[i].box);
+    return mid;
+  }
+
+  std::vector<Ref>& refs_;
+  const uint32_t first_;
+};
+
+// Sorts keys (Morton code << 32 | face) by their code: a stable radix sort of bits 32..61, ten
+// bits a pass, so equal codes stay in face order.
+void sort_by_code(std::vector<uint64_t>& keys) {
+  std::vector<uint64_t> tmp(keys.size());
+  for (int shift = 32; shift < 62; shift += 10) {
+    std::vector<std::size_t> start(1025, 0);
+    for (uint64_t k : keys) ++start[((k >> shift) & 1023) + 1];
+    for (std::size_t b = 0; b < 1024; ++b) start[b + 1] += start[b];
+    for (uint64_t k : keys) tmp[start[(k >> shift) & 1023]++] = k;
+    keys.swap(tmp);
+  }
+}
+
+// Top-down build over the faces order[begin, end), sorted along a Morton curve of their box
+// centres (`codes`): a node is split where the codes change their highest bit, a spatial median
+// found by binary search without a pass over the triangles (the boxes are joined bottom up).
+// Triangles that share one code (a cluster finer than 1/1024 of the mesh) are split by the
+// surface area heuristic instead. Slot i of the tree holds the face order[i]. Each subtree is
+// laid out depth first (a node, its left subtree, its right subtree); large subtrees are built
+// in parallel into vectors of their own and spliced, so the layout is the same as a serial
+// build.
+class Builder {
+ public:
+  Builder(const Positions& positions, const Triangles& triangles, std::vector<uint32_t>& order,
+          const std::vector<uint32_t>& codes)
+      : positions_(positions), triangles_(triangles), order_(order), codes_(codes) {}
+
+  // Appends the subtree of order[begin, end) to `out`, sets `bounds` to its bounds; returns the
+  // index of its root.
+  uint32_t build(uint32_t begin, uint32_t end, int depth, std::vector<Node>& out,
+                 Bounds& bounds) const {
+    if (end - begin <= static_cast<uint32_t>(TriangleBvh::kLeafSize)) {
+      bounds.clear();
+      for (uint32_t i = begin; i < end; ++i)
+        bounds.add(triangle_box(positions_, triangles_[order_[i]]));
+      out.push_back(make_node(bounds, begin, end - begin));
+      return static_cast<uint32_t>(out.size() - 1);
+    }
+    if (codes_[begin] == codes_[end - 1]) return build_cluster(begin, end, depth, out, bounds);
+    // The codes in [begin, end) share every bit above the highest one that differs.
+    const uint32_t bit = 1u << (31 - __builtin_clz(codes_[begin] ^ codes_[end - 1]));
+    const uint32_t mid =
+        static_cast<uint32_t>(std::partition_point(codes_.begin() + begin, codes_.begin() + end,
+                                                   [bit](uint32_t c) { return (c & bit) == 0; }) -
+                              codes_.begin());
+    const uint32_t index = static_cast<uint32_t>(out.size());
+    out.push_back({});
+    Bounds right;
+    uint32_t right_child;
+    if (end - begin >= kParallelFaces) {
+      std::vector<Node> lnodes, rnodes;
+      tbb::parallel_invoke([&] { build(begin, mid, depth + 1, lnodes, bounds); },
+                           [&] { build(mid, end, depth + 1, rnodes, right); });
+      splice(out, lnodes);
+      right_child = static_cast<uint32_t>(out.size());
+      splice(out, rnodes);
+    } else {
+      build(begin, mid, depth + 1, out, bounds);  // the left child is index + 1
+      right_child = build(mid, end, depth + 1, out, right);
+    }
+    bounds.add(right);
+    out[index] = make_node(bounds, right_child, 0);
+    return index;
+  }
+
+ private:
+  static constexpr uint32_t kParallelFaces = 1 << 15;  // smaller subtrees are built serially
+
+  // The faces order[begin, end) share one code: the surface area heuristic, over their boxes.
+  uint32_t build_cluster(uint32_t begin, uint32_t end, int depth, std::vector<Node>& out,
+                         Bounds& bounds) const {
+    std::vector<SahBuilder::Ref> refs(end - begin);
+    bounds.clear();
+    for (uint32_t i = begin; i < end; ++i) {
+      refs[i - begin] = {triangle_box(positions_, triangles_[order_[i]]), order_[i]};
+      bounds.add(refs[i - begin].box);
+    }
+    std::vector<Node> sub;
+    SahBuilder(refs, begin).build(0, end - begin, bounds, depth, sub);
+    for (uint32_t i = begin; i < end; ++i) order_[i] = refs[i - begin].face;
+    const uint32_t index = static_cast<uint32_t>(out.size());
+    splice(out, sub);
+    return index;
+  }
+
+  const Positions& positions_;
+  const Triangles& triangles_;
+  std::vector<uint32_t>& order_;
+  const std::vector<uint32_t>& codes_;
+};
+
+}  // namespace
 
 TriangleBvh::TriangleBvh(const std::vector<std::array<float, 3>>& positions,
                          const std::vector<std::array<uint32_t, 3>>& triangles) {
   const std::size_t nv = positions.size();
-  std::vector<Tri> tris;
-  std::vector<std::array<float, 3>> centroid;
-  tris.reserve(triangles.size());
-  centroid.reserve(triangles.size());
+  std::vector<uint32_t> order;  // the faces in the tree; once built, the face of every slot
+  order.reserve(triangles.size());
+  Box frame;  // holds every box centre (times two)
+  make_empty(frame.lo, frame.hi);
   for (std::size_t f = 0; f < triangles.size(); ++f) {
     const auto& t = triangles[f];
     if (t[0] >= nv || t[1] >= nv || t[2] >= nv) continue;
-    const auto &a = positions[t[0]], &b = positions[t[1]], &c = positions[t[2]];
-    Tri tri;
-    for (int k = 0; k < 3; ++k) {
-      tri.a[k] = a[k];
-      tri.ab[k] = b[k] - a[k];
-      tri.ac[k] = c[k] - a[k];
-    }
-    tri.face = static_cast<uint32_t>(f);
-    tris.push_back(tri);
-    centroid.push_back(
-        {(a[0] + b[0] + c[0]) / 3, (a[1] + b[1] + c[1]) / 3, (a[2] + b[2] + c[2]) / 3});
+    order.push_back(static_cast<uint32_t>(f));
+    for (uint32_t v : t) grow(frame.lo, frame.hi, positions[v].data(), positions[v].data());
   }
-  if (tris.empty()) return;
-  std::vector<std::array<float, 6>> boxes(tris.size());  // lo, hi of each triangle
-  for (std::size_t i = 0; i < tris.size(); ++i)
-    for (int k = 0; k < 3; ++k) {
-      const Tri& t = tris[i];
-      const float b = t.a[k] + t.ab[k], c = t.a[k] + t.ac[k];
-      boxes[i][k] = std::min({t.a[k], b, c});
-      boxes[i][3 + k] = std::max({t.a[k], b, c});
-    }
-  std::vector<uint32_t> order(tris.size());
-  for (uint32_t i = 0; i < order.size(); ++i) order[i] = i;
-  nodes_.reserve(2 * tris.size() / kLeafSize + 2);
-  build(order, centroid, boxes, 0, static_cast<uint32_t>(order.size()), 0);
-  tri_.resize(order.size());
-  for (std::size_t i = 0; i < order.size(); ++i) tri_[i] = tris[order[i]];
-}
-
-uint32_t TriangleBvh::build(std::vector<uint32_t>& order,
-                            const std::vector<std::array<float, 3>>& centroid,
-                            const std::vector<std::array<float, 6>>& boxes, uint32_t begin,
-                            uint32_t end, int depth) {
-  const uint32_t index = static_cast<uint32_t>(nodes_.size());
-  nodes_.push_back({});
-  Node node;
-  float clo[3], chi[3];
+  if (order.empty()) return;
   for (int k = 0; k < 3; ++k) {
-    node.lo[k] = clo[k] = std::numeric_limits<float>::max();
-    node.hi[k] = chi[k] = std::numeric_limits<float>::lowest();
+    frame.lo[k] *= 2;
+    frame.hi[k] *= 2;
   }
-  for (uint32_t i = begin; i < end; ++i) {
-    const auto& box = boxes[order[i]];
-    for (int k = 0; k < 3; ++k) {
-      node.lo[k] = std::min(node.lo[k], box[k]);
-      node.hi[k] = std::max(node.hi[k], box[3 + k]);
-      clo[k] = std::min(clo[k], centroid[order[i]][k]);
-      chi[k] = std::max(chi[k], centroid[order[i]][k]);
-    }
-  }
-  int axis = 0;
-  for (int k = 1; k < 3; ++k)
-    if (chi[k] - clo[k] > chi[axis] - clo[axis]) axis = k;
-  if (end - begin <= static_cast<uint32_t>(kLeafSize) || depth > 60 || !(chi[axis] > clo[axis])) {
-    node.first = begin;
-    node.count = end - begin;
-    nodes_[index] = node;
-    return index;
-  }
-  // Binned surface area heuristic on the three axes: the split that minimises
-  // area(left) * count(left) + area(right) * count(right), i.e. the expected work of a query.
-  constexpr int kBins = 16;
-  struct Bin {
-    float lo[3], hi[3];
-    uint32_t count = 0;
-  };
-  auto empty_box = [](float lo[3], float hi[3]) {
-    for (int k = 0; k < 3; ++k) {
-      lo[k] = std::numeric_limits<float>::max();
-      hi[k] = std::numeric_limits<float>::lowest();
-    }
-  };
-  auto area = [](const float lo[3], const float hi[3]) {
-    const float x = hi[0] - lo[0], y = hi[1] - lo[1], z = hi[2] - lo[2];
-    return x < 0 ? 0.0f : x * y + y * z + z * x;
-  };
-  float best_cost = std::numeric_limits<float>::max();
-  int best_axis = -1, best_bin = 0;
-  for (int ax = 0; ax < 3; ++ax) {
-    const float extent = chi[ax] - clo[ax];
-    if (!(extent > 0)) continue;
-    Bin bins[kBins];
-    for (auto& b : bins) empty_box(b.lo, b.hi);
-    const float scale = kBins / extent;
-    for (uint32_t i = begin; i < end; ++i) {
-      const int b =
-          std::min(kBins - 1, static_cast<int>((centroid[order[i]][ax] - clo[ax]) * scale));
-      const auto& box = boxes[order[i]];
-      ++bins[b].count;
+  // The faces along a Morton curve of their box centres (10 bits per axis), ties by face.
+  const std::size_t n = order.size();
+  std::vector<uint32_t> codes(n);
+  {
+    std::vector<uint64_t> keys(n);
+    tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
+      const Box b = triangle_box(positions, triangles[order[i]]);
+      uint32_t q[3];
       for (int k = 0; k < 3; ++k) {
-        bins[b].lo[k] = std::min(bins[b].lo[k], box[k]);
-        bins[b].hi[k] = std::max(bins[b].hi[k], box[3 + k]);
+        const float extent = frame.hi[k] - frame.lo[k];
+        const float u = extent > 0 ? (b.lo[k] + b.hi[k] - frame.lo[k]) / extent : 0.0f;
+        q[k] = static_cast<uint32_t>(std::clamp(u * 1024.0f, 0.0f, 1023.0f));
       }
-    }
-    // Sweep from the right to get the cost of every right side, then from the left.
-    float right_cost[kBins];
-    float lo[3], hi[3];
-    empty_box(lo, hi);
-    uint32_t n = 0;
-    for (int b = kBins - 1; b > 0; --b) {
-      for (int k = 0; k < 3; ++k) {
-        lo[k] = std::min(lo[k], bins[b].lo[k]);
-        hi[k] = std::max(hi[k], bins[b].hi[k]);
-      }
-      n += bins[b].count;
-      right_cost[b] = n ? area(lo, hi) * n : 0;
-    }
-    empty_box(lo, hi);
-    n = 0;
-    for (int b = 0; b + 1 < kBins; ++b) {
-      for (int k = 0; k < 3; ++k) {
-        lo[k] = std::min(lo[k], bins[b].lo[k]);
-        hi[k] = std::max(hi[k], bins[b].hi[k]);
-      }
-      n += bins[b].count;
-      if (n == 0 || n == end - begin) continue;
-      const float cost = area(lo, hi) * n + right_cost[b + 1];
-      if (cost < best_cost) {
-        best_cost = cost;
-        best_axis = ax;
-        best_bin = b;
-      }
-    }
-  }
-  uint32_t mid = begin + (end - begin) / 2;
-  if (best_axis >= 0) {
-    const float scale = kBins / (chi[best_axis] - clo[best_axis]);
-    const float lo_axis = clo[best_axis];
-    auto it = std::partition(order.begin() + begin, order.begin() + end, [&](uint32_t x) {
-      return std::min(kBins - 1, static_cast<int>((centroid[x][best_axis] - lo_axis) * scale)) <=
-             best_bin;
+      keys[i] = morton_code(q[0], q[1], q[2]) << 32 | order[i];
     });
-    mid = static_cast<uint32_t>(it - order.begin());
+    sort_by_code(keys);
+    for (std::size_t i = 0; i < n; ++i) {
+      order[i] = static_cast<uint32_t>(keys[i]);
+      codes[i] = static_cast<uint32_t>(keys[i] >> 32);
+    }
   }
-  if (best_axis < 0 || mid == begin || mid == end) {  // no useful split: the median
-    mid = begin + (end - begin) / 2;
-    std::nth_element(order.begin() + begin, order.begin() + mid, order.begin() + end,
-                     [&](uint32_t x, uint32_t y) { return centroid[x][axis] < centroid[y][axis]; });
-  }
-  build(order, centroid, boxes, begin, mid, depth + 1);  // the left child is index + 1
-  node.first = build(order, centroid, boxes, mid, end, depth + 1);
-  node.count = 0;
-  nodes_[index] = node;
-  return index;
+  nodes_.reserve(2 * n / kLeafSize + 2);
+  Bounds root;
+  Builder(positions, triangles, order, codes).build(0, static_cast<uint32_t>(n), 0, nodes_, root);
+  codes.clear();
+  codes.shrink_to_fit();
+  tri_.resize(n);
+  tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
+    const auto& t = triangles[order[i]];
+    const auto &a = positions[t[0]], &b = positions[t[1]], &c = positions[t[2]];
+    for (int k = 0; k < 3; ++k) {
+      tri_[i].a[k] = a[k];
+      tri_[i].ab[k] = b[k] - a[k];
+      tri_[i].ac[k] = c[k] - a[k];
+    }
+  });
 }
 
 ClosestHit TriangleBvh::closest(const std::array<float, 3>& point, uint32_t hint) const {
   const float p[3] = {point[0], point[1], point[2]};
-  ClosestHit best{std::numeric_limits<float>::infinity(), UINT32_MAX, UINT32_MAX};
+  ClosestHit best{std::numeric_limits<float>::infinity(), UINT32_MAX};
   if (hint < tri_.size()) {
     const Tri& t = tri_[hint];
-    best = {point_triangle_distance_sq(p, t.a, t.ab, t.ac), t.face, hint};
+    best = {point_triangle_distance_sq(p, t.a, t.ab, t.ac), hint};
   }
   struct Entry {
     uint32_t node;
@@ -271,10 +394,35 @@ ClosestHit TriangleBvh::closest(const std::array<float, 3>& point, uint32_t hint
     for (uint32_t i = node->first; i < node->first + node->count; ++i) {
       const Tri& t = tri_[i];
       const float d = point_triangle_distance_sq(p, t.a, t.ab, t.ac);
-      if (d < best.distance_sq) best = {d, t.face, i};
+      if (d < best.distance_sq) best = {d, i};
     }
   }
   return best;
+}
+
+std::vector<float> TriangleBvh::distances(const std::vector<std::array<float, 3>>& points,
+                                          const CancelToken* cancel,
+                                          const std::function<void(double)>& step) const {
+  std::vector<float> d(points.size(), std::numeric_limits<float>::infinity());
+  if (empty()) return d;
+  constexpr std::size_t kBatch = 1 << 16, kBlock = 256;
+  for (std::size_t begin = 0; begin < points.size(); begin += kBatch) {
+    throw_if_cancelled(cancel);
+    const std::size_t end = std::min(points.size(), begin + kBatch);
+    const std::size_t blocks = (end - begin + kBlock - 1) / kBlock;
+    tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t block) {
+      // Consecutive points are close: the previous hit is a good start.
+      uint32_t hint = UINT32_MAX;
+      const std::size_t last = std::min(end, begin + (block + 1) * kBlock);
+      for (std::size_t i = begin + block * kBlock; i < last; ++i) {
+        const ClosestHit hit = closest(points[i], hint);
+        d[i] = std::sqrt(hit.distance_sq);
+        hint = hit.slot;
+      }
+    });
+    if (step) step(static_cast<double>(end) / points.size());
+  }
+  return d;
 }
 
 }  // namespace qjulia::detail

@@ -4,24 +4,67 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
+
+#include "base/geometry.h"
+#include "base/mesh_check.h"
+#include "base/union_find.h"
+#include "qjulia/base/progress.h"
 
 namespace qjulia {
 namespace {
 
-struct UnionFind {
-  std::vector<std::uint32_t> parent;
-  explicit UnionFind(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
-  std::uint32_t find(std::uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  }
-  void unite(std::uint32_t a, std::uint32_t b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
+using detail::Vec3d;
+
+constexpr std::size_t kCancelStride = 1 << 16;  // loop iterations between cancellation checks
+
+void check_cancel(std::size_t i, const CancelToken* cancel) {
+  if (i % kCancelStride == 0) throw_if_cancelled(cancel);
+}
+
+/// Per vertex: referenced by a face.
+std::vector<char> referenced_vertices(const TriMesh& mesh) {
+  std::vector<char> used(mesh.positions.size(), 0);
+  for (const auto& t : mesh.triangles)
+    for (auto v : t) used[v] = 1;
+  return used;
+}
+
+/// The bounding box of the referenced vertices.
+void measure_bbox(const TriMesh& mesh, const std::vector<char>& used, MeshMeasure& m) {
+  const auto& o = mesh.positions[mesh.triangles[0][0]];
+  m.bbox_min = {o[0], o[1], o[2]};
+  m.bbox_max = m.bbox_min;
+  for (std::size_t v = 0; v < used.size(); ++v)
+    if (used[v])
+      for (int a = 0; a < 3; ++a) {
+        m.bbox_min[a] = std::min<double>(m.bbox_min[a], mesh.positions[v][a]);
+        m.bbox_max[a] = std::max<double>(m.bbox_max[a], mesh.positions[v][a]);
+      }
+}
+
+/// Area and signed volume of every face, relative to the first vertex for precision; counts the
+/// degenerate faces (a repeated index or zero area).
+struct FaceGeometry {
+  std::vector<double> area, volume;
 };
+FaceGeometry face_geometry(const TriMesh& mesh, MeshMeasure& m, const CancelToken* cancel) {
+  const std::size_t nf = mesh.triangles.size();
+  const Vec3d o = detail::to_vec3d(mesh.positions[mesh.triangles[0][0]]);
+  FaceGeometry g;
+  g.area.resize(nf);
+  g.volume.resize(nf);
+  for (std::size_t f = 0; f < nf; ++f) {
+    check_cancel(f, cancel);
+    const auto& t = mesh.triangles[f];
+    const Vec3d a = detail::to_vec3d(mesh.positions[t[0]]) - o,
+                b = detail::to_vec3d(mesh.positions[t[1]]) - o,
+                c = detail::to_vec3d(mesh.positions[t[2]]) - o;
+    g.area[f] = detail::triangle_area(a, b, c);
+    g.volume[f] = detail::tetra_volume(a, b, c);
+    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || g.area[f] == 0) ++m.degenerate_faces;
+  }
+  return g;
+}
 
 struct HalfEdge {
   std::uint32_t lo, hi;  // undirected key
@@ -32,161 +75,111 @@ struct HalfEdge {
   }
 };
 
-}  // namespace
-
-MeshMeasure measure(const TriMesh& mesh) {
-  MeshMeasure m;
-  const std::size_t nv = mesh.positions.size(), nf = mesh.triangles.size();
-  m.faces = nf;
-  if (nf == 0) return m;
-  std::vector<char> used(nv, 0);
-  for (const auto& t : mesh.triangles)
-    for (auto v : t) used[v] = 1;
-  m.vertices = static_cast<std::size_t>(std::count(used.begin(), used.end(), 1));
-
-  // Geometry, relative to the first vertex for precision.
-  const auto& o = mesh.positions[mesh.triangles[0][0]];
-  m.bbox_min = {o[0], o[1], o[2]};
-  m.bbox_max = m.bbox_min;
-  for (std::size_t v = 0; v < nv; ++v)
-    if (used[v])
-      for (int a = 0; a < 3; ++a) {
-        m.bbox_min[a] = std::min<double>(m.bbox_min[a], mesh.positions[v][a]);
-        m.bbox_max[a] = std::max<double>(m.bbox_max[a], mesh.positions[v][a]);
-      }
-  std::vector<double> face_volume(nf), face_area(nf);
-  for (std::size_t f = 0; f < nf; ++f) {
-    const auto& t = mesh.triangles[f];
-    double p[3][3];
-    for (int k = 0; k < 3; ++k)
-      for (int a = 0; a < 3; ++a) p[k][a] = static_cast<double>(mesh.positions[t[k]][a]) - o[a];
-    const double e1[3] = {p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
-    const double e2[3] = {p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
-    const double c[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
-                         e1[0] * e2[1] - e1[1] * e2[0]};
-    face_area[f] = 0.5 * std::sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]);
-    face_volume[f] = (p[0][0] * (p[1][1] * p[2][2] - p[1][2] * p[2][1]) -
-                      p[0][1] * (p[1][0] * p[2][2] - p[1][2] * p[2][0]) +
-                      p[0][2] * (p[1][0] * p[2][1] - p[1][1] * p[2][0])) /
-                     6.0;
-    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || face_area[f] == 0) ++m.degenerate_faces;
-  }
-
-  // Edges.
+/// Counts the edges (boundary, non-manifold, misoriented); marks the faces on an edge that does
+/// not have exactly two faces and returns one face of every edge (for per-component counts).
+struct EdgeScan {
+  std::vector<char> face_open;
+  std::vector<std::uint32_t> edge_face;
+};
+EdgeScan scan_edges(const TriMesh& mesh, MeshMeasure& m, const CancelToken* cancel) {
+  const std::size_t nf = mesh.triangles.size();
   std::vector<HalfEdge> half(3 * nf);
   for (std::size_t f = 0; f < nf; ++f)
     for (int k = 0; k < 3; ++k) {
       const std::uint32_t a = mesh.triangles[f][k], b = mesh.triangles[f][(k + 1) % 3];
       half[3 * f + k] = {std::min(a, b), std::max(a, b), static_cast<std::uint32_t>(f), a < b};
     }
+  throw_if_cancelled(cancel);
   tbb::parallel_sort(half.begin(), half.end());
-  std::vector<char> face_open(nf, 0);
-  UnionFind faces_uf(nf);
-  std::vector<std::size_t> component_edges_key;  // filled later per component
-  std::vector<std::uint32_t> edge_face;          // one face per edge, for per-component counts
+  throw_if_cancelled(cancel);
+  EdgeScan scan;
+  scan.face_open.assign(nf, 0);
   for (std::size_t i = 0; i < half.size();) {
+    check_cancel(m.edges, cancel);
     std::size_t j = i;
     while (j < half.size() && half[j].lo == half[i].lo && half[j].hi == half[i].hi) ++j;
     const std::size_t count = j - i;
     ++m.edges;
-    edge_face.push_back(half[i].face);
+    scan.edge_face.push_back(half[i].face);
     if (count == 1) ++m.boundary_edges;
     if (count > 2) ++m.nonmanifold_edges;
     if (count == 2 && half[i].forward == half[i + 1].forward) ++m.misoriented_edges;
     if (count != 2)
-      for (std::size_t k = i; k < j; ++k) face_open[half[k].face] = 1;
-    for (std::size_t k = i + 1; k < j; ++k) faces_uf.unite(half[i].face, half[k].face);
+      for (std::size_t k = i; k < j; ++k) scan.face_open[half[k].face] = 1;
     i = j;
   }
+  return scan;
+}
 
-  // Non-manifold vertices: the faces around a vertex must form one fan (connected link).
-  {
-    std::vector<std::uint32_t> start(nv + 1, 0);
-    for (const auto& t : mesh.triangles)
-      for (auto v : t) ++start[v + 1];
-    for (std::size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
-    std::vector<std::uint32_t> incident(3 * nf), fill(start.begin(), start.end() - 1);
-    for (std::size_t f = 0; f < nf; ++f)
-      for (auto v : mesh.triangles[f]) incident[fill[v]++] = static_cast<std::uint32_t>(f);
-    std::vector<std::uint32_t> link, parent;
-    for (std::size_t v = 0; v < nv; ++v) {
-      if (start[v + 1] - start[v] < 2) continue;
-      link.clear();
-      for (std::uint32_t n = start[v]; n < start[v + 1]; ++n)
-        for (auto w : mesh.triangles[incident[n]])
-          if (w != v) link.push_back(w);
-      std::sort(link.begin(), link.end());
-      link.erase(std::unique(link.begin(), link.end()), link.end());
-      parent.resize(link.size());
-      std::iota(parent.begin(), parent.end(), 0u);
-      auto find = [&](std::uint32_t x) {
-        while (parent[x] != x) x = parent[x] = parent[parent[x]];
-        return x;
-      };
-      std::size_t groups = link.size();
-      for (std::uint32_t n = start[v]; n < start[v + 1]; ++n) {
-        std::uint32_t others[2], k = 0;
-        for (auto w : mesh.triangles[incident[n]])
-          if (w != v && k < 2) others[k++] = w;
-        if (k < 2) continue;
-        const auto a = find(static_cast<std::uint32_t>(
-            std::lower_bound(link.begin(), link.end(), others[0]) - link.begin()));
-        const auto b = find(static_cast<std::uint32_t>(
-            std::lower_bound(link.begin(), link.end(), others[1]) - link.begin()));
-        if (a != b) {
-          parent[std::max(a, b)] = std::min(a, b);
-          --groups;
-        }
-      }
-      if (groups > 1) ++m.nonmanifold_vertices;
-    }
+/// Vertex-connected components (faces sharing a vertex belong together), sorted by decreasing
+/// face count.
+std::vector<ComponentMeasure> components(const TriMesh& mesh, const std::vector<char>& used,
+                                         const FaceGeometry& geometry, const EdgeScan& edges,
+                                         const CancelToken* cancel) {
+  const std::size_t nv = mesh.positions.size(), nf = mesh.triangles.size();
+  detail::UnionFind vuf(nv);
+  for (const auto& t : mesh.triangles) {
+    vuf.unite(t[0], t[1]);
+    vuf.unite(t[1], t[2]);
   }
+  throw_if_cancelled(cancel);
+  std::vector<std::int64_t> id(nv, -1);
+  std::vector<ComponentMeasure> comps;
+  std::vector<std::int64_t> comp_vertices, comp_edges;
+  for (std::size_t v = 0; v < nv; ++v) {
+    if (!used[v]) continue;
+    const auto r = vuf.find(static_cast<std::uint32_t>(v));
+    if (id[r] < 0) {
+      id[r] = static_cast<std::int64_t>(comps.size());
+      comps.emplace_back();
+      comps.back().closed = true;
+      comp_vertices.push_back(0);
+      comp_edges.push_back(0);
+    }
+    ++comp_vertices[id[r]];
+  }
+  for (std::size_t f = 0; f < nf; ++f) {
+    auto& c = comps[id[vuf.find(mesh.triangles[f][0])]];
+    ++c.faces;
+    c.volume += geometry.volume[f];
+    c.area += geometry.area[f];
+    if (edges.face_open[f]) c.closed = false;
+  }
+  for (auto f : edges.edge_face) ++comp_edges[id[vuf.find(mesh.triangles[f][0])]];
+  for (std::size_t c = 0; c < comps.size(); ++c) {
+    comps[c].euler = comp_vertices[c] - comp_edges[c] + static_cast<std::int64_t>(comps[c].faces);
+    comps[c].genus = comps[c].closed ? (2 - comps[c].euler) / 2 : -1;
+  }
+  std::stable_sort(
+      comps.begin(), comps.end(),
+      [](const ComponentMeasure& a, const ComponentMeasure& b) { return a.faces > b.faces; });
+  return comps;
+}
 
-  // Vertex-connected components (faces sharing a vertex belong together).
+}  // namespace
+
+MeshMeasure measure(const TriMesh& mesh, const CancelToken* cancel) {
+  MeshMeasure m;
+  m.faces = mesh.triangles.size();
+  if (m.faces == 0) return m;
+  const std::vector<char> used = referenced_vertices(mesh);
+  m.vertices = static_cast<std::size_t>(std::count(used.begin(), used.end(), 1));
+  measure_bbox(mesh, used, m);
+  const FaceGeometry geometry = face_geometry(mesh, m, cancel);
+  const EdgeScan edges = scan_edges(mesh, m, cancel);
   {
-    UnionFind vuf(nv);
-    for (const auto& t : mesh.triangles) {
-      vuf.unite(t[0], t[1]);
-      vuf.unite(t[1], t[2]);
-    }
-    std::vector<std::int64_t> id(nv, -1);
-    std::vector<ComponentMeasure> comps;
-    std::vector<std::int64_t> comp_vertices, comp_edges;
-    for (std::size_t v = 0; v < nv; ++v) {
-      if (!used[v]) continue;
-      const auto r = vuf.find(static_cast<std::uint32_t>(v));
-      if (id[r] < 0) {
-        id[r] = static_cast<std::int64_t>(comps.size());
-        comps.emplace_back();
-        comps.back().closed = true;
-        comp_vertices.push_back(0);
-        comp_edges.push_back(0);
-      }
-      ++comp_vertices[id[r]];
-    }
-    for (std::size_t f = 0; f < nf; ++f) {
-      auto& c = comps[id[vuf.find(mesh.triangles[f][0])]];
-      ++c.faces;
-      c.volume += face_volume[f];
-      c.area += face_area[f];
-      if (face_open[f]) c.closed = false;
-    }
-    for (auto f : edge_face) ++comp_edges[id[vuf.find(mesh.triangles[f][0])]];
-    for (std::size_t c = 0; c < comps.size(); ++c) {
-      comps[c].euler = comp_vertices[c] - comp_edges[c] + static_cast<std::int64_t>(comps[c].faces);
-      comps[c].genus = comps[c].closed ? (2 - comps[c].euler) / 2 : -1;
-    }
-    std::stable_sort(
-        comps.begin(), comps.end(),
-        [](const ComponentMeasure& a, const ComponentMeasure& b) { return a.faces > b.faces; });
-    m.components = std::move(comps);
+    const auto pinched = detail::pinched_vertices(mesh, detail::VertexFaces(mesh));
+    m.nonmanifold_vertices = static_cast<std::size_t>(
+        std::count(pinched.begin(), pinched.end(), static_cast<std::uint8_t>(1)));
   }
+  throw_if_cancelled(cancel);
+  m.components = components(mesh, used, geometry, edges, cancel);
   for (const auto& c : m.components) {
     m.volume += c.volume;
     m.area += c.area;
   }
   m.euler = static_cast<long long>(m.vertices) - static_cast<long long>(m.edges) +
-            static_cast<long long>(nf);
+            static_cast<long long>(m.faces);
   m.closed = m.boundary_edges == 0 && m.nonmanifold_edges == 0;
   m.manifold = m.nonmanifold_edges == 0 && m.nonmanifold_vertices == 0;
   m.oriented = m.misoriented_edges == 0;
@@ -194,20 +187,17 @@ MeshMeasure measure(const TriMesh& mesh) {
 }
 
 std::vector<std::array<float, 3>> area_weighted_normals(const TriMesh& mesh) {
-  std::vector<std::array<double, 3>> acc(mesh.positions.size(), {0, 0, 0});
+  std::vector<Vec3d> acc(mesh.positions.size(), {0, 0, 0});
   for (const auto& t : mesh.triangles) {
-    const auto &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
-    const double e1[3] = {double(b[0]) - a[0], double(b[1]) - a[1], double(b[2]) - a[2]};
-    const double e2[3] = {double(c[0]) - a[0], double(c[1]) - a[1], double(c[2]) - a[2]};
-    const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
-                         e1[0] * e2[1] - e1[1] * e2[0]};  // |n| = 2 * area: area weighting
-    for (auto v : t)
-      for (int k = 0; k < 3; ++k) acc[v][k] += n[k];
+    const Vec3d a = detail::to_vec3d(mesh.positions[t[0]]);
+    // |n| = 2 * area: area weighting.
+    const Vec3d n = detail::cross(detail::to_vec3d(mesh.positions[t[1]]) - a,
+                                  detail::to_vec3d(mesh.positions[t[2]]) - a);
+    for (auto v : t) acc[v] = acc[v] + n;
   }
   std::vector<std::array<float, 3>> normals(acc.size());
   for (std::size_t v = 0; v < acc.size(); ++v) {
-    const double len =
-        std::sqrt(acc[v][0] * acc[v][0] + acc[v][1] * acc[v][1] + acc[v][2] * acc[v][2]);
+    const double len = detail::length(acc[v]);
     if (len > 0 && std::isfinite(len))
       normals[v] = {float(acc[v][0] / len), float(acc[v][1] / len), float(acc[v][2] / len)};
     else

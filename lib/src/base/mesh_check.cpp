@@ -5,24 +5,17 @@
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
-#include <atomic>
-#include <numeric>
+
+#include "base/geometry.h"
+#include "base/union_find.h"
 
 namespace qjulia::detail {
 
 namespace {
 
-uint32_t find_root(std::vector<uint32_t>& parent, uint32_t x) {
-  while (parent[x] != x) {
-    parent[x] = parent[parent[x]];
-    x = parent[x];
-  }
-  return x;
-}
-
 /// Number of connected components of a vertex link given as pairs of link vertices.
 int link_components(const std::vector<std::pair<uint32_t, uint32_t>>& link) {
-  // Local union-find over the distinct link vertices (a vertex has ~6 faces).
+  // Union-find over the distinct link vertices (a vertex has ~6 faces).
   std::vector<uint32_t> ids;
   ids.reserve(link.size() * 2);
   for (const auto& e : link) {
@@ -31,21 +24,12 @@ int link_components(const std::vector<std::pair<uint32_t, uint32_t>>& link) {
   }
   std::sort(ids.begin(), ids.end());
   ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
-  std::vector<uint32_t> parent(ids.size());
-  std::iota(parent.begin(), parent.end(), 0u);
   auto index = [&](uint32_t v) {
     return static_cast<uint32_t>(std::lower_bound(ids.begin(), ids.end(), v) - ids.begin());
   };
-  int components = static_cast<int>(ids.size());
-  for (const auto& e : link) {
-    uint32_t a = find_root(parent, index(e.first));
-    uint32_t b = find_root(parent, index(e.second));
-    if (a != b) {
-      parent[a] = b;
-      --components;
-    }
-  }
-  return components;
+  UnionFind sets(ids.size());
+  for (const auto& e : link) sets.unite(index(e.first), index(e.second));
+  return static_cast<int>(sets.sets());
 }
 
 /// Fast path of a closed manifold vertex: following next -> prev visits every link edge once.
@@ -74,6 +58,26 @@ VertexFaces::VertexFaces(const TriMesh& mesh) {
   std::vector<uint32_t> fill(offsets.begin(), offsets.end() - 1);
   for (uint32_t f = 0; f < mesh.triangles.size(); ++f)
     for (uint32_t v : mesh.triangles[f]) faces[fill[v]++] = f;
+}
+
+std::vector<uint8_t> pinched_vertices(const TriMesh& mesh, const VertexFaces& vf) {
+  const auto& tris = mesh.triangles;
+  const std::size_t nv = mesh.positions.size();
+  std::vector<uint8_t> pinched(nv, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv), [&](const auto& r) {
+    std::vector<std::pair<uint32_t, uint32_t>> link;
+    for (std::size_t v = r.begin(); v != r.end(); ++v) {
+      link.clear();
+      for (uint32_t k = vf.offsets[v]; k < vf.offsets[v + 1]; ++k) {
+        const auto& t = tris[vf.faces[k]];
+        if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) continue;
+        int c = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
+        link.emplace_back(t[(c + 1) % 3], t[(c + 2) % 3]);
+      }
+      if (link.size() > 1 && !single_cycle(link) && link_components(link) > 1) pinched[v] = 1;
+    }
+  });
+  return pinched;
 }
 
 TopologyCheck check_topology(const TriMesh& mesh, bool allow_boundary) {
@@ -124,22 +128,8 @@ TopologyCheck check_topology(const TriMesh& mesh, bool allow_boundary) {
   keys.shrink_to_fit();
 
   // Vertex fans: the link of a vertex must be connected.
-  VertexFaces vf(mesh);
   const std::size_t nv = mesh.positions.size();
-  std::vector<uint8_t> pinched(nv, 0);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv), [&](const auto& r) {
-    std::vector<std::pair<uint32_t, uint32_t>> link;
-    for (std::size_t v = r.begin(); v != r.end(); ++v) {
-      link.clear();
-      for (uint32_t k = vf.offsets[v]; k < vf.offsets[v + 1]; ++k) {
-        const auto& t = tris[vf.faces[k]];
-        if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) continue;
-        int c = t[0] == v ? 0 : (t[1] == v ? 1 : 2);
-        link.emplace_back(t[(c + 1) % 3], t[(c + 2) % 3]);
-      }
-      if (link.size() > 1 && !single_cycle(link) && link_components(link) > 1) pinched[v] = 1;
-    }
-  });
+  const std::vector<uint8_t> pinched = pinched_vertices(mesh, VertexFaces(mesh));
   for (std::size_t v = 0; v < nv; ++v)
     if (pinched[v]) {
       ++out.nonmanifold_vertices;
@@ -156,23 +146,17 @@ TopologyCheck check_topology(const TriMesh& mesh, bool allow_boundary) {
 }
 
 std::size_t face_components(const TriMesh& mesh, std::vector<uint32_t>& face_component) {
-  std::vector<uint32_t> parent(mesh.positions.size());
-  std::iota(parent.begin(), parent.end(), 0u);
+  UnionFind sets(mesh.positions.size());
   for (const auto& t : mesh.triangles) {
-    uint32_t a = find_root(parent, t[0]);
-    for (int k = 1; k < 3; ++k) {
-      uint32_t b = find_root(parent, t[k]);
-      if (a != b) {
-        parent[b] = a;
-      }
-    }
+    sets.unite(t[0], t[1]);
+    sets.unite(t[0], t[2]);
   }
   constexpr uint32_t kNone = 0xffffffffu;
-  std::vector<uint32_t> label(parent.size(), kNone);
+  std::vector<uint32_t> label(mesh.positions.size(), kNone);
   uint32_t count = 0;
   face_component.resize(mesh.triangles.size());
   for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
-    uint32_t r = find_root(parent, mesh.triangles[f][0]);
+    const uint32_t r = sets.find(mesh.triangles[f][0]);
     if (label[r] == kNone) label[r] = count++;
     face_component[f] = label[r];
   }
@@ -181,15 +165,10 @@ std::size_t face_components(const TriMesh& mesh, std::vector<uint32_t>& face_com
 
 double signed_volume(const TriMesh& mesh) {
   double v = 0;
-  for (const auto& t : mesh.triangles) {
-    const auto& a = mesh.positions[t[0]];
-    const auto& b = mesh.positions[t[1]];
-    const auto& c = mesh.positions[t[2]];
-    v += (double(a[0]) * (double(b[1]) * c[2] - double(b[2]) * c[1]) +
-          double(a[1]) * (double(b[2]) * c[0] - double(b[0]) * c[2]) +
-          double(a[2]) * (double(b[0]) * c[1] - double(b[1]) * c[0]));
-  }
-  return v / 6.0;
+  for (const auto& t : mesh.triangles)
+    v += tetra_volume(to_vec3d(mesh.positions[t[0]]), to_vec3d(mesh.positions[t[1]]),
+                      to_vec3d(mesh.positions[t[2]]));
+  return v;
 }
 
 /// Drops faces with a repeated index, then pairs of faces on the same three vertices with

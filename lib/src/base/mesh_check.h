@@ -1,6 +1,7 @@
 #pragma once
 /// @file mesh_check.h
-/// Small, fast topology checks used by clean, decimate and print (independent of measure()).
+/// Small, fast topology checks and edits of clean and decimate; the vertex-fan test is shared with
+/// measure().
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -29,18 +30,24 @@ struct TopologyCheck {
 /// With allow_boundary, boundary edges are counted but their vertices are not reported bad.
 TopologyCheck check_topology(const TriMesh& mesh, bool allow_boundary = false);
 
-/// Vertex-connected components: per face its component id; returns the component count.
-std::size_t face_components(const TriMesh& mesh, std::vector<uint32_t>& face_component);
-
-/// Signed volume (divergence theorem) of the faces, in double precision.
-double signed_volume(const TriMesh& mesh);
-
 /// Compressed vertex -> incident faces table.
 struct VertexFaces {
   std::vector<uint32_t> offsets;  ///< #V + 1
   std::vector<uint32_t> faces;
-  VertexFaces(const TriMesh& mesh);
+  explicit VertexFaces(const TriMesh& mesh);
 };
+
+/// Per vertex: 1 when its faces (those without a repeated index) form more than one fan, i.e.
+/// its link is not connected; the one vertex-fan test of measure() and check_topology().
+/// Multi-threaded.
+std::vector<uint8_t> pinched_vertices(const TriMesh& mesh, const VertexFaces& vf);
+
+/// Vertex-connected components: per face its component id; returns the component count.
+std::size_t face_components(const TriMesh& mesh, std::vector<uint32_t>& face_component);
+
+/// Signed volume (divergence theorem) of the faces, in double precision (sum of per-face
+/// tetra_volume about the origin).
+double signed_volume(const TriMesh& mesh);
 
 /// Drops faces with a repeated index, then pairs of faces on the same three vertices with
 /// opposite orientation (the "fins" a collapse can leave; removing both keeps a closed mesh

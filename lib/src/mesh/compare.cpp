@@ -18,6 +18,9 @@
 #include <sstream>
 
 #include "base/bvh.h"
+#include "base/geometry.h"
+#include "base/mesh_json.h"
+#include "mesh/stage_progress.h"
 #include "qjulia/base/error.h"
 
 namespace qjulia {
@@ -59,16 +62,12 @@ Samples make_samples(const TriMesh& m, std::size_t total_samples, std::uint64_t 
 
   std::vector<double> cumulative(m.triangles.size() + 1, 0.0);
   for (std::size_t f = 0; f < m.triangles.size(); ++f) {
-    double area = 0;
     const auto& t = m.triangles[f];
-    if (valid_face(m, t)) {
-      const auto &a = m.positions[t[0]], &b = m.positions[t[1]], &c = m.positions[t[2]];
-      const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-      const double w[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-      const double x = u[1] * w[2] - u[2] * w[1], y = u[2] * w[0] - u[0] * w[2],
-                   z = u[0] * w[1] - u[1] * w[0];
-      area = 0.5 * std::sqrt(x * x + y * y + z * z);
-    }
+    const double area = valid_face(m, t)
+                            ? detail::triangle_area(detail::to_vec3d(m.positions[t[0]]),
+                                                    detail::to_vec3d(m.positions[t[1]]),
+                                                    detail::to_vec3d(m.positions[t[2]]))
+                            : 0.0;
     cumulative[f + 1] = cumulative[f] + area;
   }
   const double total = cumulative.back();
@@ -104,29 +103,6 @@ Samples make_samples(const TriMesh& m, std::size_t total_samples, std::uint64_t 
   return s;
 }
 
-// Distances of `points` to the surface in `bvh`, in blocks so progress can be reported and
-// cancellation honoured from the calling thread.
-std::vector<float> distances(const std::vector<Point>& points, const detail::TriangleBvh& bvh,
-                             const std::function<void(double)>& step) {
-  std::vector<float> d(points.size());
-  const std::size_t kBlock = 1 << 16;
-  for (std::size_t begin = 0; begin < points.size(); begin += kBlock) {
-    const std::size_t end = std::min(points.size(), begin + kBlock);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(begin, end, 256),
-                      [&](const tbb::blocked_range<std::size_t>& r) {
-                        // Consecutive samples are close: the previous hit is a good start.
-                        uint32_t hint = UINT32_MAX;
-                        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                          const auto hit = bvh.closest(points[i], hint);
-                          d[i] = std::sqrt(hit.distance_sq);
-                          hint = hit.slot;
-                        }
-                      });
-    step(static_cast<double>(end) / points.size());
-  }
-  return d;
-}
-
 DirectedDistance summarize(const std::vector<float>& d) {
   DirectedDistance out;
   double sum = 0, sum_sq = 0, mx = 0;
@@ -144,7 +120,9 @@ DirectedDistance summarize(const std::vector<float>& d) {
   return out;
 }
 
+// The shared measures (the keys of --stats), the genus summary and every component.
 nlohmann::json measure_json(const MeshMeasure& m) {
+  nlohmann::json j = detail::measure_to_json(m);
   nlohmann::json comps = nlohmann::json::array();
   for (const auto& c : m.components)
     comps.push_back({{"faces", c.faces},
@@ -153,23 +131,9 @@ nlohmann::json measure_json(const MeshMeasure& m) {
                      {"closed", c.closed},
                      {"euler", c.euler},
                      {"genus", c.genus}});
-  return {{"vertices", m.vertices},
-          {"faces", m.faces},
-          {"edges", m.edges},
-          {"area", m.area},
-          {"volume", m.volume},
-          {"closed", m.closed},
-          {"manifold", m.manifold},
-          {"oriented", m.oriented},
-          {"boundary_edges", m.boundary_edges},
-          {"nonmanifold_edges", m.nonmanifold_edges},
-          {"nonmanifold_vertices", m.nonmanifold_vertices},
-          {"euler", m.euler},
-          {"component_count", m.components.size()},
-          {"genus_summary", genus_summary(m)},
-          {"bbox_min", m.bbox_min},
-          {"bbox_max", m.bbox_max},
-          {"components", comps}};
+  j["genus_summary"] = genus_summary(m);
+  j["component_measures"] = std::move(comps);
+  return j;
 }
 
 nlohmann::json directed_json(const DirectedDistance& d) {
@@ -199,23 +163,22 @@ CompareResult compare(const TriMesh& a, const TriMesh& b, const CompareOptions& 
   std::unique_ptr<detail::TriangleBvh> bvh_a, bvh_b;
   Samples sa, sb;
   tbb::parallel_invoke(
-      [&] { result.a = measure(a); }, [&] { result.b = measure(b); },
+      [&] { result.a = measure(a, opts.cancel); }, [&] { result.b = measure(b, opts.cancel); },
       [&] { bvh_a = std::make_unique<detail::TriangleBvh>(a.positions, a.triangles); },
       [&] { bvh_b = std::make_unique<detail::TriangleBvh>(b.positions, b.triangles); },
       [&] { sa = make_samples(a, opts.samples, opts.seed); },
       [&] { sb = make_samples(b, opts.samples, opts.seed + 1); });
-  if (opts.progress && !opts.progress(0.1)) throw Cancelled();
+  detail::report_progress(opts.progress, opts.cancel, 0.1);
 
   const double total = static_cast<double>(sa.points.size() + sb.points.size());
   auto stepper = [&](double offset, double size) {
     return [&opts, offset, size, total](double f) {
-      if (opts.progress && !opts.progress(0.1 + 0.9 * (offset + f * size) / total))
-        throw Cancelled();
+      detail::report_progress(opts.progress, nullptr, 0.1 + 0.9 * (offset + f * size) / total);
     };
   };
   const double na = static_cast<double>(sa.points.size());
-  const std::vector<float> da = distances(sa.points, *bvh_b, stepper(0, na));
-  const std::vector<float> db = distances(sb.points, *bvh_a, stepper(na, total - na));
+  const std::vector<float> da = bvh_b->distances(sa.points, opts.cancel, stepper(0, na));
+  const std::vector<float> db = bvh_a->distances(sb.points, opts.cancel, stepper(na, total - na));
 
   result.a_to_b = summarize(da);
   result.b_to_a = summarize(db);
@@ -229,7 +192,7 @@ CompareResult compare(const TriMesh& a, const TriMesh& b, const CompareOptions& 
     if (std::binary_search(sa.vertex_of.begin(), sa.vertex_of.end(), v)) continue;
     result.a_vertex_distance[v] = std::sqrt(bvh_b->closest(a.positions[v]).distance_sq);
   }
-  if (opts.progress && !opts.progress(1.0)) throw Cancelled();
+  detail::report_progress(opts.progress, opts.cancel, 1.0);
   return result;
 }
 

@@ -10,8 +10,10 @@
 // back afterwards. The frozen region grows until the result is manifold.
 //
 // meshoptimizer is single-threaded (~1M faces/s here). Large meshes are therefore cut into
-// slabs along their longest axis, each simplified on its own thread with its cut edges locked;
-// a second, small pass over the joined result removes the full-resolution seams.
+// chunks along a Morton curve, simplified in parallel with their cut edges locked; a second,
+// small pass over the joined result removes the full-resolution seams. The chunk count follows
+// from the face count alone, so the result depends only on the input and the options, never on
+// the threads.
 #include "qjulia/mesh/decimate.h"
 
 #include <meshoptimizer.h>
@@ -19,18 +21,17 @@
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
-#include <cstdio>
-#include <cstdlib>
 #include <iterator>
 #include <memory>
 #include <string>
-#include <thread>
 #include <unordered_map>
 
-#include "mesh/hausdorff.h"
+#include "base/geometry.h"
 #include "base/mesh_check.h"
+#include "mesh/decimate_openmesh.h"
+#include "mesh/hausdorff.h"
+#include "mesh/stage_progress.h"
 #include "qjulia/base/error.h"
 
 namespace qjulia {
@@ -38,13 +39,8 @@ namespace qjulia {
 namespace {
 
 constexpr std::size_t kChunkFaces = 150'000;  // faces per chunk; below 2x this, one pass
+constexpr std::size_t kMinChunks = 4;         // chunks of a mesh of 2-4 times kChunkFaces
 constexpr int kMaxAttempts = 12;
-
-bool debug_enabled() { return std::getenv("QJULIA_DEBUG_DECIMATE") != nullptr; }
-
-void report_progress(const ProgressFn& progress, double fraction) {
-  if (progress && !progress(fraction)) throw Cancelled();
-}
 
 /// One meshopt pass leaving the faces marked in `frozen` untouched; returns the triangles
 /// (indexing mesh.positions) with fins removed.
@@ -80,7 +76,7 @@ std::vector<std::array<uint32_t, 3>> simplify_once(const TriMesh& mesh,
 /// cuts, are locked and allowed). Returns triangles indexing mesh.positions.
 std::vector<std::array<uint32_t, 3>> simplify_manifold(const TriMesh& mesh,
                                                        std::size_t target_faces, double abs_error,
-                                                       bool* ok,
+                                                       const CancelToken* cancel, bool* ok,
                                                        const std::vector<uint32_t>& pinned = {}) {
   const float scale = meshopt_simplifyScale(&mesh.positions[0][0], mesh.positions.size(),
                                             sizeof(mesh.positions[0]));
@@ -121,16 +117,15 @@ std::vector<std::array<uint32_t, 3>> simplify_manifold(const TriMesh& mesh,
   if (!pinned.empty()) freeze(pinned, 2);
   TriMesh out;
   for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
+    throw_if_cancelled(cancel);
     out.triangles = simplify_once(mesh, frozen, target_faces, rel_error);
+    throw_if_cancelled(cancel);
     out.positions.clear();  // check_topology only needs the vertex count
     out.positions.resize(mesh.positions.size());
     const auto topo = detail::check_topology(out, /*allow_boundary=*/true);
     std::vector<uint32_t> fresh;
     std::set_difference(topo.bad_vertices.begin(), topo.bad_vertices.end(), input_bad.begin(),
                         input_bad.end(), std::back_inserter(fresh));
-    if (debug_enabled())
-      std::fprintf(stderr, "  pass %d: %zu -> %zu faces, new defects at %zu vertices\n", attempt,
-                   mesh.triangles.size(), out.triangles.size(), fresh.size());
     if (fresh.empty()) {
       *ok = true;
       return std::move(out.triangles);
@@ -143,27 +138,15 @@ std::vector<std::array<uint32_t, 3>> simplify_manifold(const TriMesh& mesh,
   return mesh.triangles;
 }
 
-/// Interleaves the low 21 bits of x, y, z.
-uint64_t morton(uint32_t x, uint32_t y, uint32_t z) {
-  auto spread = [](uint64_t v) {
-    v &= 0x1fffff;
-    v = (v | v << 32) & 0x1f00000000ffffULL;
-    v = (v | v << 16) & 0x1f0000ff0000ffULL;
-    v = (v | v << 8) & 0x100f00f00f00f00fULL;
-    v = (v | v << 4) & 0x10c30c30c30c30c3ULL;
-    v = (v | v << 2) & 0x1249249249249249ULL;
-    return v;
-  };
-  return spread(x) | spread(y) << 1 | spread(z) << 2;
-}
-
 /// Stage 1 for large meshes: compact chunks of faces (consecutive along a Morton curve of
 /// their centroids), simplified in parallel with their cut edges locked. Returns triangles
 /// indexing mesh.positions.
-std::vector<std::array<uint32_t, 3>> simplify_chunks(const TriMesh& mesh, std::size_t chunks,
-                                                     double ratio, double abs_error,
-                                                     const std::vector<uint8_t>& pinned) {
+std::vector<std::array<uint32_t, 3>> simplify_chunks(const TriMesh& mesh, double ratio,
+                                                     double abs_error,
+                                                     const std::vector<uint8_t>& pinned,
+                                                     const CancelToken* cancel) {
   const std::size_t nf = mesh.triangles.size();
+  const std::size_t chunks = std::max(kMinChunks, (nf + kChunkFaces - 1) / kChunkFaces);
   std::array<double, 3> lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
   for (const auto& p : mesh.positions)
     for (int k = 0; k < 3; ++k) {
@@ -180,13 +163,15 @@ std::vector<std::array<uint32_t, 3>> simplify_chunks(const TriMesh& mesh, std::s
       c[k] = static_cast<uint32_t>((double(mesh.positions[t[0]][k]) + mesh.positions[t[1]][k] +
                                     mesh.positions[t[2]][k] - 3 * lo[k]) *
                                    to_grid);
-    order[f] = {morton(c[0], c[1], c[2]), static_cast<uint32_t>(f)};
+    order[f] = {detail::morton_code(c[0], c[1], c[2]), static_cast<uint32_t>(f)};
   });
   std::vector<std::size_t> cut(chunks + 1);
   for (std::size_t c = 0; c <= chunks; ++c) cut[c] = nf * c / chunks;
   tbb::parallel_sort(order.begin(), order.end());
+  throw_if_cancelled(cancel);
   std::vector<std::vector<std::array<uint32_t, 3>>> results(chunks);
   tbb::parallel_for(std::size_t(0), chunks, [&](std::size_t c) {
+    throw_if_cancelled(cancel);
     // Local mesh with compact vertices.
     TriMesh local;
     std::vector<uint32_t> global, local_pinned;
@@ -208,7 +193,7 @@ std::vector<std::array<uint32_t, 3>> simplify_chunks(const TriMesh& mesh, std::s
     }
     bool ok = false;
     const auto target = static_cast<std::size_t>(std::ceil(local.triangles.size() * ratio));
-    auto tris = simplify_manifold(local, target, abs_error, &ok, local_pinned);
+    auto tris = simplify_manifold(local, target, abs_error, cancel, &ok, local_pinned);
     for (auto& t : tris)
       for (auto& v : t) v = global[v];
     results[c] = std::move(tris);
@@ -218,8 +203,94 @@ std::vector<std::array<uint32_t, 3>> simplify_chunks(const TriMesh& mesh, std::s
   return all;
 }
 
-double seconds_since(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+/// A simplified mesh with compact vertices, and the input vertex of each of its vertices.
+struct Simplified {
+  TriMesh mesh;
+  std::vector<uint32_t> to_input;
+};
+
+/// One decimation of `mesh` to the budget and the bound `abs_error`, keeping `pinned` input
+/// vertices and their faces. Fast method: stage 1 (chunks, when `use_chunks`) and stage 2 (the
+/// whole mesh) with meshoptimizer's quadric bound; the result is closed and manifold wherever the
+/// chunk-wise checks could see. Quality method: OpenMesh with abs_error as its Hausdorff bound.
+Simplified simplify_all(const TriMesh& mesh, const DecimateOptions& opts, double abs_error,
+                        bool use_chunks, const std::vector<uint8_t>& pinned) {
+  const std::size_t nv = mesh.positions.size();
+  const std::size_t budget = opts.faces ? static_cast<std::size_t>(*opts.faces) : std::size_t(0);
+  Simplified s;
+  TriMesh& work = s.mesh;  // positions shared with the input; triangles as simplified so far
+  work.positions = mesh.positions;
+  work.colors = mesh.colors;
+  work.triangles = mesh.triangles;
+  s.to_input.resize(nv);
+  for (uint32_t i = 0; i < nv; ++i) s.to_input[i] = i;
+  auto compact = [&] {
+    std::vector<uint32_t> remap;
+    detail::compact_vertices(work, &remap);
+    std::vector<uint32_t> next(work.positions.size());
+    for (std::size_t i = 0; i < remap.size(); ++i)
+      if (remap[i] != 0xffffffffu) next[remap[i]] = s.to_input[i];
+    s.to_input.swap(next);
+  };
+  if (opts.method == DecimateMethod::kQuality) {
+    detail::OpenMeshDecimation om;
+    om.target_faces = budget;
+    om.tolerance = opts.max_error ? abs_error : 0.0;
+    om.pinned = &pinned;
+    om.cancel = opts.cancel;
+    om.progress = [&opts](double f) { return !opts.progress || opts.progress(0.4 * f); };
+    work.triangles = detail::decimate_openmesh(mesh, om);
+    detail::report_progress(opts.progress, opts.cancel, 0.4);
+    compact();
+    return s;
+  }
+  if (use_chunks) {
+    // Stage 1 stops at 1.5 times the budget so that stage 2 has room to dissolve the seams.
+    const double ratio = opts.faces ? std::min(1.0, 1.5 * budget / mesh.face_count()) : 0.0;
+    work.triangles = simplify_chunks(mesh, ratio, 0.5 * abs_error, pinned, opts.cancel);
+  }
+  detail::report_progress(opts.progress, opts.cancel, 0.4);
+  // Stage 2 (or the only stage): the whole mesh.
+  if (!opts.faces || work.face_count() > budget) {
+    // Compact first so meshoptimizer's per-vertex work follows the smaller mesh.
+    compact();
+    std::vector<uint32_t> work_pinned;
+    if (!pinned.empty())
+      for (uint32_t i = 0; i < s.to_input.size(); ++i)
+        if (pinned[s.to_input[i]]) work_pinned.push_back(i);
+    bool ok = false;
+    work.triangles =
+        simplify_manifold(work, budget, 0.5 * abs_error, opts.cancel, &ok, work_pinned);
+  }
+  compact();
+  return s;
+}
+
+/// Pins (in `pinned`, per input vertex) the input vertices of the faces of `s` that intersect
+/// others; returns true when a vertex was not pinned before. Sets rep.self_intersections.
+bool pin_self_intersections(const Simplified& s, std::vector<uint8_t>& pinned,
+                            DecimateReport& rep) {
+  const auto pairs = detail::self_intersecting_face_pairs(s.mesh);
+  rep.self_intersections = pairs.size();
+  bool fresh = false;
+  for (const auto& [a, b] : pairs)
+    for (uint32_t f : {a, b})
+      for (uint32_t v : s.mesh.triangles[f])
+        if (!pinned[s.to_input[v]]) {
+          pinned[s.to_input[v]] = 1;
+          fresh = true;
+        }
+  return fresh;
+}
+
+/// The report of a mesh that is returned as it is.
+DecimateReport unchanged_report(const TriMesh& mesh) {
+  DecimateReport rep;
+  rep.faces_before = rep.faces_after = mesh.face_count();
+  const auto topo = detail::check_topology(mesh);
+  rep.closed = topo.closed();
+  rep.manifold = topo.manifold() && topo.oriented();
+  return rep;
 }
 
 }  // namespace
@@ -238,75 +309,32 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
         throw InvalidInput("decimate: triangle index " + std::to_string(v) + " out of range (" +
                            std::to_string(nv) + " vertices)");
 
-  DecimateReport rep;
-  rep.faces_before = mesh.face_count();
   const std::size_t budget = opts.faces ? static_cast<std::size_t>(*opts.faces) : std::size_t(0);
   if (mesh.triangles.empty() || (opts.faces && budget >= mesh.face_count())) {
-    rep.faces_after = mesh.face_count();
-    const auto topo = detail::check_topology(mesh);
-    rep.closed = topo.closed();
-    rep.manifold = topo.manifold() && topo.oriented();
-    if (report) *report = rep;
+    if (report) *report = unchanged_report(mesh);
     return mesh;
   }
-  report_progress(opts.progress, 0.0);
-  const bool debug = debug_enabled();
-  auto t0 = std::chrono::steady_clock::now();
+  detail::report_progress(opts.progress, opts.cancel, 0.0);
 
   // meshoptimizer's error is the quadric (distance to planes) error, not the Hausdorff distance:
   // close to it on smooth surfaces, 1.6-1.8x smaller on bumpy ones. The first round uses the
   // bound (half per stage); when the measured distance exceeds it, the bound is scaled by
   // 0.85 * max_error / measured and the work redone.
+  DecimateReport rep;
+  rep.faces_before = mesh.face_count();
   double abs_error = opts.max_error ? *opts.max_error : 1e30;
-  TriMesh out;
-  bool use_chunks = mesh.face_count() >= 2 * kChunkFaces;
+  detail::HausdorffOptions hopts;
+  hopts.cancel = opts.cancel;
+  detail::Hausdorff hausdorff(mesh, hopts);  // keeps the input's BVH between attempts
+  Simplified best;
+  bool use_chunks = opts.method == DecimateMethod::kFast && mesh.face_count() >= 2 * kChunkFaces;
   std::vector<uint8_t> pinned;  // input vertices kept with their stars (self-intersections)
   int intersection_rounds = 0;
   for (int attempt = 0; attempt < 10; ++attempt) {
-    TriMesh work;  // positions shared with the input; triangles as simplified so far
-    work.positions = mesh.positions;
-    work.colors = mesh.colors;
-    work.triangles = mesh.triangles;
-    std::vector<uint32_t> to_input(nv);  // work vertex -> input vertex
-    for (uint32_t i = 0; i < nv; ++i) to_input[i] = i;
-    auto compact = [&] {
-      std::vector<uint32_t> remap;
-      detail::compact_vertices(work, &remap);
-      std::vector<uint32_t> next(work.positions.size());
-      for (std::size_t i = 0; i < remap.size(); ++i)
-        if (remap[i] != 0xffffffffu) next[remap[i]] = to_input[i];
-      to_input.swap(next);
-    };
-    const std::size_t threads = std::max(1u, std::thread::hardware_concurrency());
-    if (use_chunks) {
-      const std::size_t chunks =
-          std::max<std::size_t>(2 * threads, (mesh.face_count() + kChunkFaces - 1) / kChunkFaces);
-      // Stage 1 stops at 1.5 times the budget so that stage 2 has room to dissolve the seams.
-      const double ratio = opts.faces ? std::min(1.0, 1.5 * budget / mesh.face_count()) : 0.0;
-      work.triangles = simplify_chunks(mesh, chunks, ratio, 0.5 * abs_error, pinned);
-      if (debug)
-        std::fprintf(stderr, "decimate: %zu chunks -> %zu faces, %.2f s\n", chunks,
-                     work.triangles.size(), seconds_since(t0));
-    }
-    report_progress(opts.progress, 0.4);
-    // Stage 2 (or the only stage): the whole mesh.
-    if (!opts.faces || work.face_count() > budget) {
-      // Compact first so meshoptimizer's per-vertex work follows the smaller mesh.
-      compact();
-      std::vector<uint32_t> work_pinned;
-      if (!pinned.empty())
-        for (uint32_t i = 0; i < to_input.size(); ++i)
-          if (pinned[to_input[i]]) work_pinned.push_back(i);
-      bool ok = false;
-      work.triangles = simplify_manifold(work, budget, 0.5 * abs_error, &ok, work_pinned);
-    }
-    compact();
-    out = std::move(work);
-    if (debug)
-      std::fprintf(stderr, "decimate: -> %zu faces, %.2f s\n", out.face_count(), seconds_since(t0));
+    best = simplify_all(mesh, opts, abs_error, use_chunks, pinned);
     // Safety net: a defect that the chunk-wise checks could not see means redoing it in one piece
     // (unless the input had the defect already).
-    const auto topo = detail::check_topology(out);
+    const auto topo = detail::check_topology(best.mesh);
     rep.closed = topo.closed();
     rep.manifold = topo.manifold() && topo.oriented();
     if (use_chunks && !(rep.closed && rep.manifold)) {
@@ -316,41 +344,27 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
         continue;
       }
     }
-    report_progress(opts.progress, 0.7);
-    rep.hausdorff = detail::hausdorff_distance(mesh, out).distance();
-    if (debug)
-      std::fprintf(stderr, "decimate: hausdorff %g, %.2f s\n", rep.hausdorff, seconds_since(t0));
+    detail::report_progress(opts.progress, opts.cancel, 0.7);
+    rep.hausdorff = hausdorff.to(best.mesh).distance();
     if (opts.max_error && rep.hausdorff > *opts.max_error) {
       abs_error *= 0.85 * (*opts.max_error / rep.hausdorff);
       continue;
     }
+    // Pin the input vertices of intersecting faces and redo; stop when every intersecting face
+    // is already pinned (then the input had the intersection) or after three rounds.
     if (opts.avoid_self_intersections) {
-      // Pin the input vertices of intersecting faces and redo; stop when every intersecting
-      // face is already pinned (then the input had the intersection) or after three rounds.
-      const auto pairs = detail::self_intersecting_face_pairs(out);
-      rep.self_intersections = pairs.size();
-      if (debug)
-        std::fprintf(stderr, "decimate: %zu self-intersecting pairs, %.2f s\n", pairs.size(),
-                     seconds_since(t0));
       if (pinned.empty()) pinned.assign(nv, 0);
-      bool fresh = false;
-      for (const auto& [a, b] : pairs)
-        for (uint32_t f : {a, b})
-          for (uint32_t v : out.triangles[f])
-            if (!pinned[to_input[v]]) {
-              pinned[to_input[v]] = 1;
-              fresh = true;
-            }
-      if (fresh && intersection_rounds++ < 3) continue;
+      if (pin_self_intersections(best, pinned, rep) && intersection_rounds++ < 3) continue;
     }
     break;
   }
+  TriMesh out = std::move(best.mesh);
   // Input normals describe the fine surface; the caller recomputes them for the coarse one.
   out.normals.clear();
   rep.faces_after = out.face_count();
   rep.target_reached = (!opts.faces || rep.faces_after <= budget) &&
                        (!opts.max_error || rep.hausdorff <= *opts.max_error);
-  report_progress(opts.progress, 1.0);
+  detail::report_progress(opts.progress, opts.cancel, 1.0);
   if (report) *report = rep;
   return out;
 }

@@ -5,9 +5,8 @@
 #include <limits>
 #include <string>
 
-#include "base/mesh_check.h"
-#include "qjulia/mesh/clean.h"
 #include "qjulia/base/error.h"
+#include "qjulia/mesh/clean.h"
 
 namespace qjulia {
 
@@ -38,38 +37,25 @@ double scale_to_longest_side(TriMesh& mesh, double length) {
 
 PrintabilityReport printability(const TriMesh& mesh, const PrintabilityOptions& opts) {
   PrintabilityReport r;
-  const auto topo = detail::check_topology(mesh);
-  r.boundary_edges = topo.boundary_edges;
-  r.nonmanifold_edges = topo.nonmanifold_edges;
-  r.nonmanifold_vertices = topo.nonmanifold_vertices;
-  r.closed = topo.closed() && topo.degenerate_faces == 0;
-  r.manifold = topo.manifold();
-  r.oriented = topo.oriented();
-  std::vector<uint32_t> comp;
-  r.components = detail::face_components(mesh, comp);
-  r.volume = detail::signed_volume(mesh);
+  const MeshMeasure m = measure(mesh, opts.cancel);
+  const bool repeated_index =
+      std::any_of(mesh.triangles.begin(), mesh.triangles.end(),
+                  [](const auto& t) { return t[0] == t[1] || t[1] == t[2] || t[0] == t[2]; });
+  r.boundary_edges = m.boundary_edges;
+  r.nonmanifold_edges = m.nonmanifold_edges;
+  r.nonmanifold_vertices = m.nonmanifold_vertices;
+  r.closed = m.closed && !repeated_index;
+  r.manifold = m.manifold;
+  r.oriented = m.oriented;
+  r.components = m.components.size();
+  r.volume = m.volume;
   r.outward = r.volume > 0;
   if (opts.millimetres) r.volume_cm3 = r.volume / 1000.0;
-  bool any = false;
-  for (const auto& t : mesh.triangles) {
-    const auto &a = mesh.positions[t[0]], &b = mesh.positions[t[1]], &c = mesh.positions[t[2]];
-    double u[3], v[3];
-    for (int k = 0; k < 3; ++k) {
-      u[k] = double(b[k]) - a[k];
-      v[k] = double(c[k]) - a[k];
-    }
-    const double n0 = u[1] * v[2] - u[2] * v[1], n1 = u[2] * v[0] - u[0] * v[2],
-                 n2 = u[0] * v[1] - u[1] * v[0];
-    r.area += 0.5 * std::sqrt(n0 * n0 + n1 * n1 + n2 * n2);
-    for (uint32_t i : t)
-      for (int k = 0; k < 3; ++k) {
-        const double x = mesh.positions[i][k];
-        r.bbox_min[k] = any ? std::min(r.bbox_min[k], x) : x;
-        r.bbox_max[k] = any ? std::max(r.bbox_max[k], x) : x;
-      }
-    any = true;
-  }
+  r.area = m.area;
+  r.bbox_min = m.bbox_min;
+  r.bbox_max = m.bbox_max;
   for (int k = 0; k < 3; ++k) r.size[k] = r.bbox_max[k] - r.bbox_min[k];
+  throw_if_cancelled(opts.cancel);
   if (opts.check_self_intersections) r.self_intersections = count_self_intersections(mesh);
   return r;
 }

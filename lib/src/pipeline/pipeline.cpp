@@ -3,6 +3,7 @@
 #include <chrono>
 #include <nlohmann/json.hpp>
 
+#include "base/mesh_json.h"
 #include "pipeline/dust.h"
 #include "qjulia/base/error.h"
 #include "qjulia/base/memory.h"
@@ -167,21 +168,7 @@ std::string stats_to_json(const RunStats& s, const Params& params) {
   j["voxel_size"] = s.voxel_size;
   j["grid_points"] = s.grid_points;
   const MeshMeasure& m = s.measure;
-  j["vertices"] = m.vertices;
-  j["faces"] = m.faces;
-  j["edges"] = m.edges;
-  j["closed"] = m.closed;
-  j["manifold"] = m.manifold;
-  j["oriented"] = m.oriented;
-  j["boundary_edges"] = m.boundary_edges;
-  j["nonmanifold_edges"] = m.nonmanifold_edges;
-  j["nonmanifold_vertices"] = m.nonmanifold_vertices;
-  j["degenerate_faces"] = m.degenerate_faces;
-  j["volume"] = m.volume;
-  j["area"] = m.area;
-  j["euler"] = m.euler;
-  j["components"] = m.components.size();
-  j["bbox"] = {{"min", m.bbox_min}, {"max", m.bbox_max}};
+  j.update(detail::measure_to_json(m));
   j["unit"] = s.unit.empty() ? "model" : s.unit;
   j["scale"] = s.scale;
   json timings = json::object();

@@ -8,6 +8,8 @@
 
 namespace qjulia {
 
+class CancelToken;
+
 /// An indexed triangle mesh in slice coordinates (x, y, z as sampled), counter-clockwise seen
 /// from outside (outward normals).
 struct TriMesh {
@@ -51,8 +53,9 @@ struct MeshMeasure {
   std::vector<ComponentMeasure> components;  ///< sorted by decreasing face count
 };
 
-/// Measures `mesh`. Runs in O(F log F).
-MeshMeasure measure(const TriMesh& mesh);
+/// Measures `mesh`. Runs in O(F log F). Faces with a repeated index count towards the edges but
+/// not towards the vertex fans. @throws Cancelled when `cancel` is requested.
+MeshMeasure measure(const TriMesh& mesh, const CancelToken* cancel = nullptr);
 
 /// Area-weighted vertex normals of `mesh`: #V unit vectors, (0, 0, 1) where no face defines a
 /// direction (isolated vertices, zero-area fans).

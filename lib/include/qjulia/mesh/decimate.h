@@ -9,10 +9,23 @@
 
 namespace qjulia {
 
+/// How decimate() simplifies. Both keep a closed manifold mesh closed and manifold, use input
+/// vertices only and report the same measured Hausdorff distance.
+enum class DecimateMethod {
+  /// meshoptimizer's quadric simplifier under qjulia's topology guard, in parallel chunks: about
+  /// 1.2M input faces per second on two cores. The default.
+  kFast,
+  /// OpenMesh's Decimater (ModQuadric order, ModNormalFlipping at 45 degrees, ModHausdorff with
+  /// max_error): keeps the genus, reaches face budgets the fast method cannot on fractal meshes
+  /// and gives a lower error at the same face count; single-threaded, 4-15x the CPU time.
+  kQuality,
+};
+
 /// Options of decimate(). At least one of faces / max_error is set.
 struct DecimateOptions {
   std::optional<long long> faces;   ///< at most this many faces
   std::optional<double> max_error;  ///< Hausdorff bound to the input, model units
+  DecimateMethod method = DecimateMethod::kFast;
   /// Check the result for self-intersections (CGAL, ~1.5 s per 150k output faces) and redo the
   /// decimation keeping the faces around intersecting ones (up to three rounds).
   bool avoid_self_intersections = false;

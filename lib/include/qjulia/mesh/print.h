@@ -38,6 +38,8 @@ TriMesh thicken(const TriMesh& mesh, const ThickenOptions& opts);
 struct PrintabilityOptions {
   bool check_self_intersections = false;  ///< run count_self_intersections (CGAL; ~1 s/1M faces)
   bool millimetres = true;                ///< the mesh is in mm: fill volume_cm3
+  /// Checked between the steps; when requested, printability() throws Cancelled.
+  const CancelToken* cancel = nullptr;
 };
 
 /// Whether a mesh can be printed as it is.
@@ -64,7 +66,9 @@ struct PrintabilityReport {
   }
 };
 
-/// Measures what a slicer cares about. O(F log F), plus the self-intersection test if asked.
+/// Measures what a slicer cares about (from measure(); a face with a repeated index makes the
+/// mesh not closed). O(F log F), plus the self-intersection test if asked.
+/// @throws Cancelled when opts.cancel is requested.
 PrintabilityReport printability(const TriMesh& mesh, const PrintabilityOptions& opts = {});
 
 }  // namespace qjulia
