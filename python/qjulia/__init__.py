@@ -23,10 +23,10 @@ import os
 from collections.abc import Mapping
 
 from . import _core
-from ._core import Cancelled, CancelToken, Mesh
+from ._core import Cancelled, CancelToken, Mesh, save_png
 
-__all__ = ["mesh", "params", "presets", "load", "compare", "render", "Mesh", "CancelToken",
-           "Cancelled"]
+__all__ = ["mesh", "params", "presets", "load", "compare", "render", "save_png", "Mesh",
+           "CancelToken", "Cancelled"]
 __version__ = _core.version()
 
 # The sections of a parameter file that an override given as a dict updates key by key.

@@ -201,6 +201,27 @@ py::array_t<std::uint8_t> render_mesh(const PyMesh& mesh, const py::kwargs& kwar
   return py::array_t<std::uint8_t>({h, w, py::ssize_t(3)}, data, owner);
 }
 
+// Writes an H x W x 3 uint8 array as a PNG, as `qjulia render` writes its images.
+void save_png(const py::object& path_like, const py::handle& pixels) {
+  const std::string path = fspath(path_like);
+  using Array = py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>;
+  const Array a = Array::ensure(pixels);
+  if (!a || a.ndim() != 3 || a.shape(2) != 3)
+    throw InvalidInput("image: expected an H x W x 3 array of uint8");
+  Image image;
+  image.height = static_cast<int>(a.shape(0));
+  image.width = static_cast<int>(a.shape(1));
+  image.rgb.assign(a.data(), a.data() + a.size());
+  check_writable(path);
+  try {
+    py::gil_scoped_release release;
+    write_png(path, image);
+  } catch (const std::runtime_error& e) {
+    PyErr_SetString(PyExc_OSError, e.what());
+    throw py::error_already_set();
+  }
+}
+
 // Test hook: throws the library's exception of `kind`, so the tests see every translation.
 void throw_for_test(const std::string& kind, const std::string& message) {
   if (kind == "InvalidInput") throw InvalidInput(message);
@@ -441,5 +462,7 @@ PYBIND11_MODULE(_core, m) {
         "The JSON of `qjulia compare --json`.");
   m.def("render", &render_mesh, py::arg("mesh"),
         "Renders a mesh; keyword arguments as the members of RenderOptions.");
+  m.def("save_png", &save_png, py::arg("path"), py::arg("image"),
+        "Writes an H x W x 3 uint8 image (render()) as a PNG.");
   m.def("_throw_for_test", &throw_for_test, py::arg("kind"), py::arg("message"));
 }

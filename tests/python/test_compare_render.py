@@ -73,6 +73,16 @@ def test_render_equals_the_cli_image(tmp_path, pair):
     assert np.abs(direct - cli).max() <= 1
 
 
+def test_save_png_writes_the_image(tmp_path, pair):
+    image = qjulia.render(pair[0], width=50, height=40, shading="phong")
+    qjulia.save_png(tmp_path / "i.png", image)
+    np.testing.assert_array_equal(read_png(tmp_path / "i.png"), image)
+    with pytest.raises(ValueError, match="H x W x 3"):
+        qjulia.save_png(tmp_path / "j.png", image[:, :, :2])
+    with pytest.raises(FileNotFoundError):
+        qjulia.save_png(tmp_path / "no" / "i.png", image)
+
+
 def test_render_uses_the_library_defaults_and_checks_options(pair):
     a = pair[0]
     image = qjulia.render(a, width=40, height=30, background=(0, 0, 0))
