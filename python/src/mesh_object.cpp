@@ -12,14 +12,12 @@
 namespace qjulia::python {
 namespace {
 
-std::string lower_extension(const std::string& path) {
-  const auto slash = path.find_last_of('/');
-  const auto dot = path.find_last_of('.');
-  if (dot == std::string::npos || (slash != std::string::npos && dot < slash)) return "";
-  std::string ext = path.substr(dot);
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return ext;
+// Whether `path` ends in .vdb (any case).
+bool is_vdb_path(const std::string& path) {
+  if (path.size() < 4) return false;
+  std::string ext = path.substr(path.size() - 4);
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext == ".vdb";
 }
 
 // A read-only #rows x 3 array over `rows`, kept alive by `owner` (the Python Mesh): no copy.
@@ -100,7 +98,7 @@ py::object json_or_none(const std::string& text) {
 void save(const PyMesh& m, const py::object& path_like, const py::object& progress,
           const py::object& cancel) {
   const std::string path = fspath(path_like);
-  const bool vdb = lower_extension(path) == ".vdb";
+  const bool vdb = is_vdb_path(path);
   if (vdb && !m.grid)
     throw InvalidInput(path +
                        ": a .vdb file holds the sampled grid, which only a mesh made with "

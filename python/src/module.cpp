@@ -9,6 +9,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <exception>
+#include <initializer_list>
 #include <stdexcept>
 #include <thread>
 #include <vector>
@@ -123,6 +124,23 @@ std::array<T, N> fixed_array(const py::handle& value, const char* name) {
   return a;
 }
 
+// The value named by the string `value` among `choices`.
+// @throws InvalidInput naming `option` and the names it accepts.
+template <typename E>
+E choice(const py::handle& value, const char* option,
+         std::initializer_list<std::pair<const char*, E>> choices) {
+  const auto s = value.cast<std::string>();
+  std::string names;
+  std::size_t i = 0;
+  for (const auto& [name, e] : choices) {
+    if (s == name) return e;
+    if (i > 0) names += i + 1 == choices.size() ? " or " : ", ";
+    names += name;
+    ++i;
+  }
+  throw InvalidInput(std::string(option) + ": '" + s + "' is not " + names);
+}
+
 // RenderOptions from keyword arguments named as its members (vertex_colors for
 // use_vertex_colors); the library's defaults where absent.
 RenderOptions render_options(const py::kwargs& kwargs) {
@@ -134,15 +152,10 @@ RenderOptions render_options(const py::kwargs& kwargs) {
     } else if (k == "height") {
       o.height = value.cast<int>();
     } else if (k == "shading") {
-      const auto s = value.cast<std::string>();
-      if (s == "simple")
-        o.shading = Shading::kSimple;
-      else if (s == "lambert")
-        o.shading = Shading::kLambert;
-      else if (s == "phong")
-        o.shading = Shading::kPhong;
-      else
-        throw InvalidInput("shading: '" + s + "' is not simple, lambert or phong");
+      o.shading = choice<Shading>(value, "shading",
+                                  {{"simple", Shading::kSimple},
+                                   {"lambert", Shading::kLambert},
+                                   {"phong", Shading::kPhong}});
     } else if (k == "lights") {
       o.lights.clear();
       for (const auto& l : value) o.lights.push_back(fixed_array<3, double>(l, "lights"));
@@ -165,13 +178,8 @@ RenderOptions render_options(const py::kwargs& kwargs) {
     } else if (k == "vertex_colors") {
       o.use_vertex_colors = value.cast<bool>();
     } else if (k == "framing") {
-      const auto s = value.cast<std::string>();
-      if (s == "box")
-        o.framing = Framing::kBox;
-      else if (s == "sphere")
-        o.framing = Framing::kSphere;
-      else
-        throw InvalidInput("framing: '" + s + "' is not box or sphere");
+      o.framing =
+          choice<Framing>(value, "framing", {{"box", Framing::kBox}, {"sphere", Framing::kSphere}});
     } else if (k == "margin") {
       o.margin = value.cast<double>();
     } else if (k == "supersample") {

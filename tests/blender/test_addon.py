@@ -10,44 +10,20 @@ Regenerate, the size in millimetres, the parameters kept in a saved .blend, and 
 cancellation of the worker job behind the modal operators.
 """
 
-import argparse
 import atexit
 import json
 import os
 import shutil
-import subprocess
 import sys
-import tempfile
 import time
 
-import addon_utils
 import bmesh
 import bpy
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-parser = argparse.ArgumentParser()
-parser.add_argument("--module-path", required=True)
-parser.add_argument("--cli", required=True)
-ARGS = parser.parse_args(sys.argv[sys.argv.index("--") + 1:])
-TMP = tempfile.mkdtemp(prefix="qjulia-blender-")
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from addon_setup import TMP, build, cli_stats, qjulia  # noqa: E402  (enables the add-on)
+
 atexit.register(shutil.rmtree, TMP, True)
-
-sys.path.insert(0, os.path.join(ROOT, "blender"))
-assert addon_utils.enable("qjulia_blender", default_set=True) is not None, "add-on not enabled"
-bpy.context.preferences.addons["qjulia_blender"].preferences.module_path = ARGS.module_path
-from qjulia_blender import build  # noqa: E402  (after the add-on is enabled)
-
-qjulia = build.load_qjulia()
-assert os.path.dirname(os.path.dirname(qjulia.__file__)) == os.path.abspath(ARGS.module_path), \
-    qjulia.__file__
-
-
-def cli_stats(*flags):
-    stats = os.path.join(TMP, "stats.json")
-    subprocess.run([ARGS.cli, "mesh", *map(str, flags), "--quiet", "--stats", stats,
-                    "-o", os.path.join(TMP, "cli.ply")], check=True, stdout=subprocess.DEVNULL)
-    with open(stats) as f:
-        return json.load(f)
 
 
 def check_object(obj, stats, colored=True):
@@ -145,7 +121,9 @@ assert bpy.ops.object.qjulia_regenerate() == {'FINISHED'}
 check_object(julia, cli_stats("--preset", "classic-julia", "--resolution", 32, "--iterations", 8),
              colored=False)
 
-# The job behind the modal operators: progress from the worker thread, cancel within a second.
+# The job behind the modal operators: progress from the worker thread; cancel() stops it. (The
+# library stops within 0.1 to 0.2 s mostly, but took up to 2.4 s under heavy load just after
+# sampling began, docs/python.md; uncancelled, this job runs for tens of seconds.)
 job = build.MeshJob(qjulia, qjulia.params("newton-cubic", resolution=512)).start()
 deadline = time.monotonic() + 10
 while not job.stage and time.monotonic() < deadline:
@@ -156,6 +134,6 @@ job.cancel()
 assert job.wait(timeout=5)
 assert isinstance(job.error, qjulia.Cancelled) and job.result is None, job.error
 print(f"job cancelled after {time.monotonic() - cancelled:.2f} s")
-assert time.monotonic() - cancelled < 1.0
+assert time.monotonic() - cancelled < 5
 
 print("qjulia Blender add-on: all checks passed")

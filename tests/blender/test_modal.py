@@ -10,32 +10,17 @@ Regenerate is cancelled by a simulated Esc: it stops within a second and the obj
 mesh. Exits 0 when every check passed, 1 otherwise.
 """
 
-import argparse
-import json
 import os
 import shutil
-import subprocess
 import sys
-import tempfile
 import time
 import traceback
 
-import addon_utils
 import bpy
 
-ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-parser = argparse.ArgumentParser()
-parser.add_argument("--module-path", required=True)
-parser.add_argument("--cli", required=True)
-ARGS = parser.parse_args(sys.argv[sys.argv.index("--") + 1:])
-TMP = tempfile.mkdtemp(prefix="qjulia-blender-modal-")
-
-sys.path.insert(0, os.path.join(ROOT, "blender"))
-assert addon_utils.enable("qjulia_blender", default_set=True) is not None, "add-on not enabled"
-bpy.context.preferences.addons["qjulia_blender"].preferences.module_path = ARGS.module_path
-from qjulia_blender import build, operators  # noqa: E402  (after the add-on is enabled)
-
-qjulia = build.load_qjulia()
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from addon_setup import TMP, build, cli_stats, qjulia  # noqa: E402  (enables the add-on)
+from qjulia_blender import operators  # noqa: E402
 
 # What the operators show in the status bar, and their jobs.
 shown = []
@@ -68,14 +53,6 @@ def spy_run(self, *args):
 
 
 build.MeshJob._run = spy_run
-
-
-def cli_stats(*flags):
-    stats = os.path.join(TMP, "stats.json")
-    subprocess.run([ARGS.cli, "mesh", *map(str, flags), "--quiet", "--stats", stats,
-                    "-o", os.path.join(TMP, "cli.ply")], check=True, stdout=subprocess.DEVNULL)
-    with open(stats) as f:
-        return json.load(f)
 
 
 def view3d():

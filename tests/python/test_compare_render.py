@@ -88,8 +88,10 @@ def test_render_uses_the_library_defaults_and_checks_options(pair):
     image = qjulia.render(a, width=40, height=30, background=(0, 0, 0))
     assert image.shape == (30, 40, 3)
     assert (image[0, 0] == 0).all() and image.max() > 0
-    with pytest.raises(ValueError, match="shading"):
+    with pytest.raises(ValueError, match="shading: .glossy. is not simple, lambert or phong"):
         qjulia.render(a, shading="glossy")
+    with pytest.raises(ValueError, match="framing: 'tight' is not box or sphere"):
+        qjulia.render(a, framing="tight")
     with pytest.raises(ValueError):
         qjulia.render(a, width=0)
     with pytest.raises(TypeError, match="sizee"):
