@@ -11,3 +11,6 @@
 #include "qjulia/mesh/compare.h"
 #include "qjulia/pipeline/pipeline.h"
 #include "qjulia/render/render.h"
+#if __has_include("qjulia/render/image.h")  // Image and write_png, once render.h is split
+#include "qjulia/render/image.h"
+#endif
