@@ -18,5 +18,6 @@ int cmd_bench(const Tokens& args, const CancelToken& cancel);
 int cmd_compare(const Tokens& args, const CancelToken& cancel);
 int cmd_experiment(const Tokens& args, const CancelToken& cancel);
 int cmd_render(const Tokens& args, const CancelToken& cancel);
+int cmd_explore(const Tokens& args, const CancelToken& cancel);
 
 }  // namespace qjulia::cli

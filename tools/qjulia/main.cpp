@@ -22,6 +22,7 @@ commands:
   render MESH -o OUT.png [options]      draw a preview image
   experiment NAME [options]             reproduce an experiment (table1, cardioid)
   bench [options]                       measure the pipeline's speed
+  explore [PARAMS.json] [options]       the interactive page in the browser
   version                               print the version
 
 'qjulia COMMAND --help' describes a command's options.
@@ -47,6 +48,7 @@ int main(int argc, char** argv) {
     if (command == "render") return cmd_render(args, cancel);
     if (command == "experiment") return cmd_experiment(args, cancel);
     if (command == "bench") return cmd_bench(args, cancel);
+    if (command == "explore") return cmd_explore(args, cancel);
     if (command == "version" || command == "--version") {
       std::printf("qjulia %s\n", qjulia::version());
       return 0;
