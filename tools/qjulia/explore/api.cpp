@@ -284,8 +284,8 @@ Reply Api::export_file(std::uint64_t id) const {
   Reply r;
   r.file = *file;
   r.content_type = content_type_of(format_from_path(file->string()));
-  r.headers.emplace_back("Content-Disposition", "attachment; filename=\"qjulia-" +
-                                                    std::to_string(id) + "." + s->format + "\"");
+  // No file name: the page names the download (a name here would take precedence).
+  r.headers.emplace_back("Content-Disposition", "attachment");
   return r;
 }
 
