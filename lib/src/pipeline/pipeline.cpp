@@ -76,6 +76,7 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
       opts.keep_grid ? extract(grid, eopts, &estats) : extract(std::move(grid), eopts, &estats);
   timer.stop();
   stats.refine_evaluations = estats.evaluations;
+  stats.unembedded_cells = estats.unembedded_cells;
 
   // Dust: the extracted mesh is closed, manifold and free of duplicate vertices, and its
   // components are measured, so only the small ones go (the measures follow). A mesh whose
@@ -165,6 +166,7 @@ std::string stats_to_json(const RunStats& s, const Params& params) {
   j["evaluation_ratio"] =
       s.dense_evaluations ? static_cast<double>(s.evaluations) / s.dense_evaluations : 0.0;
   j["crossing_cells"] = s.crossing_cells;
+  j["unembedded_cells"] = s.unembedded_cells;
   j["voxel_size"] = s.voxel_size;
   j["grid_points"] = s.grid_points;
   const MeshMeasure& m = s.measure;

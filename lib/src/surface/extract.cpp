@@ -435,7 +435,7 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
     evaluations += detail::colorize(mesh, *impl.solid, impl.geometry.voxel, opts.color);
   if (stats) {
     stats->evaluations = evaluations;
-    stats->crossing_cells = unmended;
+    stats->unembedded_cells = unmended;
     stats->measure_valid = m.closed && degenerate == 0;
     stats->measure = std::move(m);
     stats->face_component = std::move(face_component);

@@ -44,6 +44,9 @@ struct RunStats {
   std::uint64_t refine_evaluations = 0;
   std::uint64_t dense_evaluations = 0;  ///< grid points of a dense grid
   std::uint64_t crossing_cells = 0;
+  /// Cells whose triangles cross one another whatever triangulation was tried (0: the
+  /// extracted surface is embedded, free of self-intersections).
+  std::uint64_t unembedded_cells = 0;
   double voxel_size = 0;
   std::array<int, 3> grid_points{0, 0, 0};
   MeshMeasure measure;                                  ///< of the final mesh
