@@ -220,7 +220,9 @@ BrickPlan plan_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
     const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
     float v[8];
     cell_values(br, c, v);
-    const CellCase& cc = cell_case(v);
+    const std::uint16_t number = cell_case_index(v);
+    out.cells.push_back((static_cast<std::uint32_t>(c) << 16) | number);
+    const CellCase& cc = cell_case_at(number);
     placed.clear();
     bool cell_ok = true;
     for (int L = 0; L < cc.loops; ++L) {
@@ -292,7 +294,7 @@ BrickPlan plan_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
   return out;
 }
 
-BrickFaces brick_triangles(const Brick& br, const BrickPlan& plan, const MeshTarget& target) {
+BrickFaces brick_triangles(const BrickPlan& plan, const MeshTarget& target) {
   const CubeTables& t = cube();
   BrickFaces out;
   Lookup lookup(target.around);
@@ -301,12 +303,10 @@ BrickFaces brick_triangles(const Brick& br, const BrickPlan& plan, const MeshTar
     return static_cast<std::uint32_t>(target.around.base[dir] + index);
   };
   std::size_t face = target.face_base, centre = target.centre_base, choice = 0;
-  for (int c = 0; c < kBrickCells; ++c) {
-    if (!br.surface.test(c)) continue;
+  for (const std::uint32_t cell : plan.cells) {
+    const int c = static_cast<int>(cell >> 16);
     const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
-    float v[8];
-    cell_values(br, c, v);
-    const CellCase& cc = cell_case(v);
+    const CellCase& cc = cell_case_at(static_cast<std::uint16_t>(cell & 0xffff));
     for (int L = 0; L < cc.loops; ++L) {
       const int len = cc.length[L];
       const std::uint8_t* loop = cc.edge[L];

@@ -241,7 +241,13 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
   each_brick(0.35, 0.5, [&](std::size_t i) {
     plans[i] =
         detail::plan_brick(*impl.bricks[i], *impl.solid, impl.geometry, bopts, around(i, true));
+    if (release) impl.bricks[i].reset();  // the plan holds what is left to do with its values
   });
+  if (release) {
+    impl.bricks.clear();
+    impl.bricks.shrink_to_fit();
+    malloc_trim(0);
+  }
   std::size_t edges_total = 0, centres_total = 0, faces_total = 0, unmended = 0;
   std::uint64_t evaluations = 0;
   for (std::size_t i = 0; i < nb; ++i) {
@@ -274,6 +280,7 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
     std::vector<std::array<float, 3>>().swap(verts[i].positions);
     std::vector<std::array<float, 3>>().swap(plans[i].centres);
   }
+  malloc_trim(0);
   // Pass three: the triangles, with the measures of each brick.
   const std::array<double, 3> origin = impl.geometry.origin;
   std::vector<detail::BrickFaces> faces(nb);
@@ -285,16 +292,11 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
     target.centre_base = range[i].centre;
     target.face_base = range[i].face;
     target.around = around(i, false);
-    faces[i] = detail::brick_triangles(*impl.bricks[i], plans[i], target);
-    if (release) impl.bricks[i].reset();
+    faces[i] = detail::brick_triangles(plans[i], target);
+    std::vector<std::uint32_t>().swap(plans[i].cells);
     bm[i] = measure_brick(mesh, range[i], faces[i].border, origin,
                           face_component.data() + range[i].face);
   });
-  if (release) {
-    impl.bricks.clear();
-    impl.bricks.shrink_to_fit();
-    malloc_trim(0);
-  }
   // The half-edges on brick faces: each brick's +x, +y, +z lists against the neighbour's -x,
   // -y, -z lists, reversed.
   std::vector<std::size_t> border_edges(nb, 0), border_problems(nb, 0);
@@ -452,7 +454,9 @@ TriMesh extract(const SampledGrid& grid, const ExtractOptions& opts, ExtractStat
 }
 
 TriMesh extract(SampledGrid&& grid, const ExtractOptions& opts, ExtractStats* stats) {
-  return extract_bricks(grid.impl(), true, opts, stats);
+  TriMesh mesh = extract_bricks(grid.impl(), true, opts, stats);
+  malloc_trim(0);  // the many small blocks of the bricks' passes, free now
+  return mesh;
 }
 
 }  // namespace qjulia
