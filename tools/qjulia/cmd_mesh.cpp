@@ -91,6 +91,8 @@ int cmd_mesh(const Tokens& tokens, const CancelToken& cancel) {
   popts.dense = args.has("dense");
   popts.keep_grid = args.has("vdb");
   popts.max_memory = max_memory_from_args(args);
+  popts.outputs = {format_from_path(*out)};
+  popts.preview = preview.has_value();
   popts.cancel = &cancel;
   ProgressBar bar(args.has("quiet"));
   popts.progress = bar.callback();
