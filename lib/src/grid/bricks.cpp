@@ -1,10 +1,9 @@
 #include "grid/bricks.h"
 
+#include <malloc.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
-
-#include <malloc.h>
 
 #include <algorithm>
 #include <cmath>
@@ -336,8 +335,7 @@ struct BrickSampler::Impl {
                 const int nb[3] = {br.at.x + bo[0], br.at.y + bo[1], br.at.z + bo[2]};
                 if (!in_range(nb)) continue;
                 deliver(a, br,
-                        {brick_key(nb[0], nb[1], nb[2]), static_cast<std::uint8_t>(1u << lq)},
-                        out);
+                        {brick_key(nb[0], nb[1], nb[2]), static_cast<std::uint8_t>(1u << lq)}, out);
               }
             }
       }
@@ -415,14 +413,29 @@ struct BrickSampler::Impl {
       lo[k] = std::max(0, -1 - base[k]);
       hi[k] = std::min(kBrick - 1, geo.points[k] - 1 - base[k]);
     }
+    // The cells of a brick inside the grid, named by their lower corners (all 8^3 of them).
+    static const Pts kAllCells = [] {
+      Pts all;
+      for (int i = 0; i < kBrick; ++i)
+        for (int j = 0; j < kBrick; ++j)
+          for (int k = 0; k < kBrick; ++k) all.set(point_index(i, j, k));
+      return all;
+    }();
     Pts valid, frontier, visited, surface, sign;
-    for (int i = lo[0]; i <= hi[0]; ++i)
-      for (int j = lo[1]; j <= hi[1]; ++j)
-        for (int k = lo[2]; k <= hi[2]; ++k) valid.set(point_index(i, j, k));
+    if (lo[0] == 0 && lo[1] == 0 && lo[2] == 0 && hi[0] == kBrick - 1 && hi[1] == kBrick - 1 &&
+        hi[2] == kBrick - 1) {
+      valid = kAllCells;
+    } else {
+      for (int i = lo[0]; i <= hi[0]; ++i)
+        for (int j = lo[1]; j <= hi[1]; ++j)
+          for (int k = lo[2]; k <= hi[2]; ++k) valid.set(point_index(i, j, k));
+    }
     auto to_point = [](int c) { return point_index(c / 64, (c / 8) % 8, c % 8); };
-    for (int c = 0; c < kBrickCells; ++c) {
-      if (br.visited.test(c)) visited.set(to_point(c));
-      if (br.surface.test(c)) surface.set(to_point(c));
+    for (int w = 0; w < kBrickCells / 64; ++w) {
+      for (std::uint64_t bits = br.visited.w[w]; bits; bits &= bits - 1)
+        visited.set(to_point(w * 64 + __builtin_ctzll(bits)));
+      for (std::uint64_t bits = br.surface.w[w]; bits; bits &= bits - 1)
+        surface.set(to_point(w * 64 + __builtin_ctzll(bits)));
     }
     for (std::uint16_t c : cells) frontier.set(to_point(c));
     for (int w = 0; w < Pts::kWords; ++w)
@@ -511,7 +524,6 @@ struct BrickSampler::Impl {
       }
     }
   }
-
 };
 
 BrickSampler::BrickSampler(const Solid& solid, const GridGeometry& geo, const SampleOptions& opts)
@@ -720,7 +732,9 @@ BrickList BrickSampler::run() {
     // class comes (in this round, or in the next for the classes already done), until no
     // request is left. Which bricks a class visits depends only on the classes before it, so
     // the result does not depend on the thread count.
-    auto class_of = [](const Brick& b) { return (b.at.x & 1) | ((b.at.y & 1) << 1) | ((b.at.z & 1) << 2); };
+    auto class_of = [](const Brick& b) {
+      return (b.at.x & 1) | ((b.at.y & 1) << 1) | ((b.at.z & 1) << 2);
+    };
     std::vector<Brick*> pending[8];
     for (std::uint64_t k : refined8) {
       Brick& b = get(k);
@@ -754,7 +768,8 @@ BrickList BrickSampler::run() {
         }
         // Bricks asked for that do not exist yet; then the schedules, by class.
         std::vector<Request> missing;
-        for (Outbox& o : outboxes) missing.insert(missing.end(), o.missing.begin(), o.missing.end());
+        for (Outbox& o : outboxes)
+          missing.insert(missing.end(), o.missing.begin(), o.missing.end());
         std::sort(missing.begin(), missing.end(),
                   [](const Request& a, const Request& b) { return a.key < b.key; });
         Outbox created;

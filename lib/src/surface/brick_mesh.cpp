@@ -111,25 +111,40 @@ bool on_upper_face(int code) {
   return p / 81 == kBrick || (p / 9) % 9 == kBrick || p % 9 == kBrick;
 }
 
-// BrickNeighbours::find, remembered by edge code (each vertex is a corner of up to four cells).
+// BrickNeighbours::find, remembered by edge code (each vertex is a corner of up to four cells),
+// in a table of the thread's that is never cleared: an entry counts when it carries this
+// lookup's stamp.
 class Lookup {
  public:
-  explicit Lookup(const BrickNeighbours& around) : around_(around) {
-    std::fill(std::begin(slot_), std::end(slot_), kUnset);
+  explicit Lookup(const BrickNeighbours& around) : around_(around), table_(table()) {
+    if (++table_.stamp == 0) {  // wrapped: clear once every 2^32 lookups
+      std::fill(std::begin(table_.stamps), std::end(table_.stamps), 0u);
+      table_.stamp = 1;
+    }
   }
   std::pair<int, std::size_t> operator()(int code) {
-    std::uint64_t& s = slot_[code];
-    if (s == kUnset) {
+    if (table_.stamps[code] != table_.stamp) {
       const auto [dir, index] = around_.find(code);
-      s = (static_cast<std::uint64_t>(index) << 3) | static_cast<std::uint64_t>(dir);
+      table_.slot[code] =
+          (static_cast<std::uint64_t>(index) << 3) | static_cast<std::uint64_t>(dir);
+      table_.stamps[code] = table_.stamp;
     }
+    const std::uint64_t s = table_.slot[code];
     return {static_cast<int>(s & 7), static_cast<std::size_t>(s >> 3)};
   }
 
  private:
-  static constexpr std::uint64_t kUnset = ~std::uint64_t{0};
+  struct Table {
+    std::uint32_t stamp = 0;
+    std::uint32_t stamps[kEdgeCodes] = {};
+    std::uint64_t slot[kEdgeCodes];
+  };
+  static Table& table() {
+    thread_local Table t;
+    return t;
+  }
   const BrickNeighbours& around_;
-  std::uint64_t slot_[kEdgeCodes];
+  Table& table_;
 };
 
 }  // namespace
