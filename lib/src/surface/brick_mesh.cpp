@@ -121,6 +121,13 @@ class Lookup {
       std::fill(std::begin(table_.stamps), std::end(table_.stamps), 0u);
       table_.stamp = 1;
     }
+    // The brick's own vertices at once (most corners are), the neighbours' when asked.
+    if (const std::vector<std::uint16_t>* own = around.codes[0])
+      for (std::size_t i = 0; i < own->size(); ++i) {
+        const int code = (*own)[i];
+        table_.slot[code] = static_cast<std::uint64_t>(i) << 3;
+        table_.stamps[code] = table_.stamp;
+      }
   }
   std::pair<int, std::size_t> operator()(int code) {
     if (table_.stamps[code] != table_.stamp) {
