@@ -144,6 +144,11 @@ struct Brick {
   void unpack();
   /// Values of the known points only (about a third of the points): how bricks wait.
   void pack();
+  /// Sets the known points and their values (in point order), packed: a copy of another
+  /// process's brick.
+  void assign(const Bits<kBrickPoints>& known_points, const float* values);
+  /// The known values in point order (the brick packed).
+  const float* packed_values() const { return packed.get(); }
 
  private:
   std::unique_ptr<float[]> full;                      // kBrickPoints values, while sampled
