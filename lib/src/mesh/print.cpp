@@ -6,8 +6,9 @@
 #include <string>
 
 #include "base/mesh_check.h"
-#include "qjulia/mesh/clean.h"
 #include "qjulia/base/error.h"
+#include "qjulia/base/validate.h"
+#include "qjulia/mesh/clean.h"
 
 namespace qjulia {
 
@@ -37,6 +38,7 @@ double scale_to_longest_side(TriMesh& mesh, double length) {
 }
 
 PrintabilityReport printability(const TriMesh& mesh, const PrintabilityOptions& opts) {
+  validate_mesh(mesh, "printability");
   PrintabilityReport r;
   const auto topo = detail::check_topology(mesh);
   r.boundary_edges = topo.boundary_edges;

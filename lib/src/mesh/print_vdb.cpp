@@ -10,8 +10,9 @@
 #include <string>
 
 #include "base/mesh_check.h"
-#include "qjulia/mesh/clean.h"
 #include "qjulia/base/error.h"
+#include "qjulia/base/validate.h"
+#include "qjulia/mesh/clean.h"
 #include "qjulia/mesh/print.h"
 
 namespace qjulia {
@@ -30,6 +31,7 @@ void shift_values(openvdb::FloatGrid& grid, float c) {
 }  // namespace
 
 TriMesh thicken(const TriMesh& mesh, const ThickenOptions& opts) {
+  validate_mesh(mesh, "thicken");
   if (!(opts.min_thickness > 0) || !std::isfinite(opts.min_thickness))
     throw InvalidInput("thicken: min_thickness must be > 0, got " +
                        std::to_string(opts.min_thickness));

@@ -20,8 +20,9 @@
 #include <limits>
 #include <stdexcept>
 
-#include "render/font5x7.h"
 #include "qjulia/base/error.h"
+#include "qjulia/base/validate.h"
+#include "render/font5x7.h"
 
 namespace qjulia {
 namespace {
@@ -76,24 +77,7 @@ void validate_options(const RenderOptions& o) {
 
 void validate(const TriMesh& mesh, const RenderOptions& o) {
   validate_options(o);
-  const std::size_t nv = mesh.positions.size();
-  require(mesh.normals.empty() || mesh.normals.size() == nv,
-          "mesh has " + std::to_string(mesh.normals.size()) + " normals for " + std::to_string(nv) +
-              " vertices");
-  require(mesh.colors.empty() || mesh.colors.size() == nv,
-          "mesh has " + std::to_string(mesh.colors.size()) + " colours for " + std::to_string(nv) +
-              " vertices");
-  // Messages are built only on failure: these loops run over every face and vertex.
-  for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
-    for (std::uint32_t v : mesh.triangles[f])
-      if (v >= nv)
-        require(false, "face " + std::to_string(f) + " refers to vertex " + std::to_string(v) +
-                           " but the mesh has " + std::to_string(nv) + " vertices");
-  for (std::size_t v = 0; v < nv; ++v) {
-    const auto& p = mesh.positions[v];
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
-      require(false, "vertex " + std::to_string(v) + " has a non-finite position");
-  }
+  validate_mesh(mesh, "render");
 }
 
 /// R = Rz * Ry * Rx: rotation about X first, then Y, then Z (degrees).
