@@ -76,6 +76,12 @@ void push_charged(std::vector<T>& v, const T& item, ReadContext& ctx, const char
   v.push_back(item);
 }
 
+/// Parses `bytes` in `format`, checks the mesh (validate_mesh) and applies the readers' policy
+/// (ReadReport): what read_mesh() and read_mesh_from_memory() do, and the fuzzers call.
+/// @throws InvalidInput naming ctx.name(); TooLarge.
+TriMesh read_mesh_bytes(std::string_view bytes, MeshFormat format, ReadContext& ctx,
+                        ReadReport* report);
+
 // Readers: parse the whole file in `bytes`. Each returns the mesh as the file holds it; the
 // caller (read_mesh) checks it with validate_mesh() and applies the policy of ReadReport.
 TriMesh read_gltf(std::string_view bytes, bool binary, ReadContext& ctx);

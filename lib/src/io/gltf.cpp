@@ -305,9 +305,11 @@ std::string refusal(const BufferPolicy& p, const std::string& rel) {
 
 bool policy_file_exists(const std::string& path, void* user) {
   auto& p = *static_cast<BufferPolicy*>(user);
-  if (p.ctx->base_dir().empty()) {
-    p.refused = "URI '" + path + "' names a file, but the glTF was read from memory (only " +
-                "data: URIs are read)";
+  if (p.ctx->base_dir().empty()) {  // tinygltf tries "URI", then "./URI"
+    if (p.refused.empty()) {
+      p.refused = "URI '" + path + "' names a file, but the glTF was read from memory (only " +
+                  "data: URIs are read)";
+    }
     return false;
   }
   if (path.rfind(p.prefix, 0) != 0) return false;  // tinygltf's second try, the working folder

@@ -165,7 +165,7 @@ TriMesh parse(std::string_view bytes, MeshFormat format, ReadContext& ctx) {
 
 /// The policy of every reader: the mesh is checked (validate_mesh), triangles with a repeated
 /// index are dropped, unreferenced vertices kept.
-void finish(TriMesh& mesh, const ReadContext& ctx, ReadReport* report) {
+void finish_read(TriMesh& mesh, const ReadContext& ctx, ReadReport* report) {
   validate_mesh(mesh, ctx.name());
   ReadReport rep;
   auto& tris = mesh.triangles;
@@ -187,6 +187,14 @@ void finish(TriMesh& mesh, const ReadContext& ctx, ReadReport* report) {
 }
 
 }  // namespace
+
+TriMesh read_mesh_bytes(std::string_view bytes, MeshFormat format, ReadContext& ctx,
+                        ReadReport* report) {
+  TriMesh mesh = parse(bytes, format, ctx);
+  finish_read(mesh, ctx, report);
+  return mesh;
+}
+
 }  // namespace detail
 
 MeshFormat format_from_path(const std::string& path) {
@@ -271,18 +279,14 @@ TriMesh read_mesh(const std::string& path, const ReadOptions& opts) {
   const MeshFormat format = detail::input_format(path);
   detail::ReadContext ctx = detail::file_context(path, opts);
   const std::string bytes = detail::read_whole_file(path, ctx);
-  TriMesh mesh = detail::parse(bytes, format, ctx);
-  detail::finish(mesh, ctx, opts.report);
-  return mesh;
+  return detail::read_mesh_bytes(bytes, format, ctx, opts.report);
 }
 
 TriMesh read_mesh_from_memory(std::string_view bytes, MeshFormat format, const ReadOptions& opts) {
   const MemoryLimits limits = memory_limits(opts.max_memory);
   detail::ReadContext ctx(opts.name.empty() ? "<memory>" : opts.name, "", limits.effective(),
                           limits.describe());
-  TriMesh mesh = detail::parse(bytes, format, ctx);
-  detail::finish(mesh, ctx, opts.report);
-  return mesh;
+  return detail::read_mesh_bytes(bytes, format, ctx, opts.report);
 }
 
 std::string read_mesh_params(const std::string& path) {

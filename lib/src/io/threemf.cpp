@@ -105,6 +105,28 @@ void build_model(const std::string& path, const ExportData& data, Handle& model)
   }
 }
 
+/// lib3mf writes its zip stream here, in memory: lib3mf 1.8 terminates the process when a
+/// write to a file fails (it throws from a destructor), so only qjulia's AtomicFile writes.
+struct MemoryStream {
+  std::string bytes;
+  std::size_t position = 0;
+};
+
+unsigned write_callback(unsigned char* data, unsigned size, void* user) {
+  auto& s = *static_cast<MemoryStream*>(user);
+  if (s.position + size > s.bytes.size()) s.bytes.resize(s.position + size);
+  std::memcpy(s.bytes.data() + s.position, data, size);
+  s.position += size;
+  return 0;  // LIB3MF_OK
+}
+
+unsigned seek_callback(unsigned long long position, void* user) {
+  auto& s = *static_cast<MemoryStream*>(user);
+  if (position > s.bytes.size()) return 1;
+  s.position = std::size_t(position);
+  return 0;
+}
+
 }  // namespace
 
 void write_3mf(const std::string& path, const ExportData& data) {
@@ -116,12 +138,14 @@ void write_3mf(const std::string& path, const ExportData& data) {
     lib3mf_writer_setprogresscallback(writer.get(), keep_going,
                                       const_cast<CancelToken*>(data.cancel));
   }
-  AtomicFile file(path, data.cancel);
-  file.close_for_external();
-  if (lib3mf_writer_writetofileutf8(writer.get(), file.temp_path().c_str()) != LIB3MF_OK) {
+  AtomicFile file(path, data.cancel);  // checks the path before the work
+  MemoryStream stream;
+  if (lib3mf_writer_writetocallback(writer.get(), reinterpret_cast<void*>(write_callback),
+                                    reinterpret_cast<void*>(seek_callback), &stream) != LIB3MF_OK) {
     throw_if_cancelled(data.cancel);
     throw std::runtime_error(path + ": writing: " + last_error(writer.get()));
   }
+  file.write(stream.bytes);
   file.commit();
 }
 

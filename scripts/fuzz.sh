@@ -1,0 +1,74 @@
+#!/usr/bin/env bash
+# Builds the libFuzzer targets (clang-16, ASan+UBSan; tests/fuzz/CMakeLists.txt) in build-fuzz/
+# and runs every target: first the committed corpus tests/fuzz/corpus/TARGET once, then a fixed
+# number of fuzzing runs with a fixed seed (-seed=1 -runs=N), so CI is deterministic. New inputs
+# go to build-fuzz/corpus/TARGET (the committed corpus is left as it is), crashes to
+# build-fuzz/artifacts/. Fails on the first crash, leak, timeout or sanitizer report.
+#
+# Usage: scripts/fuzz.sh [TARGET...]        (default: every target)
+#   FUZZ_SCALE=10 scripts/fuzz.sh obj        ten times the runs (a longer search)
+#   FUZZ_ONLY_BUILD=1 scripts/fuzz.sh        build only
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$PWD
+
+# Runs per target, about 30 s each on one core of the CI machine (measured; see
+# docs/robustness.md). The 3MF reader is slow per input (lib3mf and libzip).
+declare -A runs=(
+  [formula_fuzz]=600000 [params_fuzz]=150000
+  [mesh_ply_ascii_fuzz]=300000 [mesh_ply_binary_le_fuzz]=300000 [mesh_ply_binary_be_fuzz]=300000
+  [mesh_obj_fuzz]=300000 [mesh_stl_ascii_fuzz]=300000 [mesh_stl_binary_fuzz]=300000
+  [mesh_gltf_fuzz]=60000 [mesh_glb_fuzz]=60000 [mesh_3mf_fuzz]=15000)
+declare -A corpus=(
+  [formula_fuzz]=formula [params_fuzz]=params [mesh_ply_ascii_fuzz]=ply_ascii
+  [mesh_ply_binary_le_fuzz]=ply_binary_le [mesh_ply_binary_be_fuzz]=ply_binary_be
+  [mesh_obj_fuzz]=obj [mesh_stl_ascii_fuzz]=stl_ascii [mesh_stl_binary_fuzz]=stl_binary
+  [mesh_gltf_fuzz]=gltf [mesh_glb_fuzz]=glb [mesh_3mf_fuzz]=3mf)
+declare -A dict=(
+  [formula_fuzz]=formula [params_fuzz]=params [mesh_ply_ascii_fuzz]=ply
+  [mesh_ply_binary_le_fuzz]=ply [mesh_ply_binary_be_fuzz]=ply [mesh_obj_fuzz]=obj
+  [mesh_stl_ascii_fuzz]=stl [mesh_gltf_fuzz]=gltf [mesh_glb_fuzz]=gltf)
+order=(formula_fuzz params_fuzz mesh_ply_ascii_fuzz mesh_ply_binary_le_fuzz
+  mesh_ply_binary_be_fuzz mesh_obj_fuzz mesh_stl_ascii_fuzz mesh_stl_binary_fuzz mesh_gltf_fuzz
+  mesh_glb_fuzz mesh_3mf_fuzz)
+targets=("${@:-${order[@]}}")
+scale=${FUZZ_SCALE:-1}
+
+command -v clang++-16 >/dev/null || { echo "fuzz: clang++-16 is missing (scripts/setup.sh)" >&2; exit 1; }
+cmake -S . -B build-fuzz -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER=clang++-16 \
+  -DQJULIA_BUILD_FUZZERS=ON >/dev/null
+cmake --build build-fuzz -j "$(nproc)" --target fuzzers
+[[ -n "${FUZZ_ONLY_BUILD:-}" ]] && exit 0
+
+# Sanitizers stop at the first report; leaks count. Suppressions: tests/fuzz/lsan.supp.
+export ASAN_OPTIONS=abort_on_error=1:detect_leaks=1:allocator_may_return_null=1
+export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+export LSAN_OPTIONS=suppressions=$root/tests/fuzz/lsan.supp:print_suppressions=0
+# Suppressions match function names: reports must be symbolized.
+symbolizer=$(command -v llvm-symbolizer-16 || command -v llvm-symbolizer || true)
+[[ -n "$symbolizer" ]] && export ASAN_SYMBOLIZER_PATH=$symbolizer
+asan=$ASAN_OPTIONS
+
+mkdir -p build-fuzz/artifacts
+for t in "${targets[@]}"; do
+  [[ -n "${corpus[$t]:-}" ]] || { echo "fuzz: unknown target $t (${order[*]})" >&2; exit 2; }
+  exe=build-fuzz/tests/fuzz/$t
+  seeds=tests/fuzz/corpus/${corpus[$t]}
+  work=build-fuzz/corpus/${corpus[$t]}
+  mkdir -p "$work"
+  flags=(-seed=1 -timeout=10 -rss_limit_mb=2048 -max_len=65536 -print_final_stats=1
+    -artifact_prefix="build-fuzz/artifacts/$t-")
+  [[ -n "${dict[$t]:-}" ]] && flags+=(-dict="tests/fuzz/${dict[$t]}.dict")
+  n=$((runs[$t] * scale))
+  # lib3mf has no frame pointers: its leak is matched on the full stack (tests/fuzz/lsan.supp).
+  ASAN_OPTIONS=$asan
+  [[ $t == mesh_3mf_fuzz ]] && ASAN_OPTIONS=$asan:fast_unwind_on_malloc=0
+  echo "== $t: replay $seeds, then $n runs" >&2
+  start=$SECONDS
+  "$exe" "${flags[@]}" -runs=0 "$seeds" 2>"build-fuzz/$t.replay.log" ||
+    { cat "build-fuzz/$t.replay.log" >&2; exit 1; }
+  "$exe" "${flags[@]}" -runs="$n" "$work" "$seeds" 2>"build-fuzz/$t.log" ||
+    { tail -n 60 "build-fuzz/$t.log" >&2; exit 1; }
+  stats=$(grep -E "^stat::number_of_executed_units|^#[0-9]+.*(DONE|cov)" "build-fuzz/$t.log" | tail -2 | tr '\n' ' ')
+  echo "   $t: $((SECONDS - start)) s; $stats" >&2
+done
