@@ -213,13 +213,14 @@ void text_seeds() {
 }
 
 void gltf_seeds() {
-  // A BIN chunk that claims the bytes of its own header (tinygltf 2.7 reads past the end).
-  const std::string json = R"({"asset":{"version":"2.0"},"buffers":[{"byteLength":8}]})";
+  // A BIN chunk whose length counts its own 8-byte header too: tinygltf 2.7 checks it against
+  // the GLB's length without the header and copies 8 bytes from past the end of the file.
+  const std::string json = R"({"asset":{"version":"2.0"},"buffers":[{"byteLength":12}]})";
   std::string padded = json;
   while (padded.size() % 4) padded += ' ';
-  std::string glb = u32(0x46546C67) + u32(2) + u32(uint32_t(20 + padded.size() + 8)) +
+  std::string glb = u32(0x46546C67) + u32(2) + u32(uint32_t(20 + padded.size() + 8 + 4)) +
                     u32(uint32_t(padded.size())) + u32(0x4E4F534A) + padded;
-  glb += u32(8) + u32(0x004E4942);
+  glb += u32(12) + u32(0x004E4942) + "data";
   put("glb", "bin_chunk_past_end.glb", glb);
   put("gltf", "file_uri_refused.gltf",
       R"({"asset":{"version":"2.0"},"buffers":[{"byteLength":12,"uri":"../../etc/passwd"}],)"
