@@ -268,4 +268,30 @@ TEST(CliFiles, ABadMeshFileGetsTheSameVerdictFromEveryCommand) {
   EXPECT_FALSE(fs::exists(dir.file("x.png")));
 }
 
+TEST(CliFiles, AnInputThatWouldNotFitInMemoryExitsTwoBeforeItIsAllocated) {
+  // 30 polygons of a million one-byte indices: a 30 MB file whose triangles take 360 MB, read
+  // under a 400 MB address-space limit (the CLI itself needs some 200 MB of it).
+  TempDir dir;
+  std::string ply =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 256\nproperty uchar x\n"
+      "property uchar y\nproperty uchar z\nelement face 30\n"
+      "property list uint uchar vertex_indices\nend_header\n";
+  for (int v = 0; v < 256; ++v) ply += std::string{char(v), char(v / 16), char(v % 7)};
+  std::string face(4 + 1000000, '\0');
+  const uint32_t n = 1000000;
+  std::memcpy(&face[0], &n, 4);
+  for (uint32_t k = 0; k < n; ++k) face[4 + k] = char(k % 251);
+  for (int f = 0; f < 30; ++f) ply += face;
+  const std::string big = write_bytes(dir.file("big.ply"), ply);
+  const std::string good = sphere_file(dir, "good.glb");
+  const std::string limit = "ulimit -v 400000; exec " + std::string(QJULIA_CLI);
+  const std::string verdict = big + ": reading it needs at least ";
+  expect_exit(io_fixtures::shell(limit + " compare " + quote(big) + " " + quote(good) + " --quiet"),
+              2, verdict);
+  expect_exit(
+      io_fixtures::shell(limit + " render " + quote(big) + " -o " + quote(dir.file("x.png"))), 2,
+      verdict);
+  EXPECT_FALSE(fs::exists(dir.file("x.png")));
+}
+
 }  // namespace

@@ -112,6 +112,21 @@ std::string be(const void* p, std::size_t n) {
   return std::string(s.rbegin(), s.rend());
 }
 
+/// The triangles as big-endian PLY face records: a Count 3, then three Index values.
+template <class Count, class Index>
+std::string be_faces(const TriMesh& m) {
+  std::string out;
+  for (const auto& f : m.triangles) {
+    const Count n = 3;
+    out += be(&n, sizeof n);
+    for (uint32_t i : f) {
+      const Index s = Index(i);
+      out += be(&s, sizeof s);
+    }
+  }
+  return out;
+}
+
 void ply_seeds() {
   put("ply_ascii", "triangle.ply",
       "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
@@ -150,13 +165,7 @@ void ply_seeds() {
     for (float c : p) body += be(&c, 4);
     body += std::string("\x80\x40\x20", 3);
   }
-  for (const auto& f : t.triangles) {
-    body += '\3';
-    for (uint32_t i : f) {
-      const int32_t s = int32_t(i);
-      body += be(&s, 4);
-    }
-  }
+  body += be_faces<uint8_t, int32_t>(t);
   put("ply_binary_be", "tetrahedron_colored.ply",
       "ply\nformat binary_big_endian 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
       "property float z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\n"
@@ -168,14 +177,7 @@ void ply_seeds() {
       const double d = c;
       dbody += be(&d, 8);
     }
-  for (const auto& f : t.triangles) {
-    const uint16_t n = 3;
-    dbody += be(&n, 2);
-    for (uint32_t i : f) {
-      const uint16_t s = uint16_t(i);
-      dbody += be(&s, 2);
-    }
-  }
+  dbody += be_faces<uint16_t, uint16_t>(t);
   put("ply_binary_be", "tetrahedron_double_ushort.ply",
       "ply\nformat binary_big_endian 1.0\nelement vertex 4\nproperty double x\n"
       "property double y\nproperty double z\nelement face 4\n"

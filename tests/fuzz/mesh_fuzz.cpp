@@ -104,31 +104,31 @@ void read_params(std::string_view bytes, qjulia::detail::ReadContext& ctx) {
 
 constexpr std::size_t kMemory = std::size_t(256) << 20;  // well below libFuzzer's -rss_limit_mb
 
+/// Runs `read` on a fresh context: it may return or throw InvalidInput naming the input.
+template <class F>
+void expect_clean(const char* what, F&& read) {
+  qjulia::detail::ReadContext ctx("fuzz", "", kMemory, "256 MiB (fuzzing)");
+  try {
+    read(ctx);
+  } catch (const qjulia::InvalidInput& e) {
+    if (std::strncmp(e.what(), "fuzz: ", 6) != 0) bug("a message that does not name the input");
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "mesh fuzz: unexpected exception reading %s: %s\n", what, e.what());
+    std::abort();
+  }
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view bytes(reinterpret_cast<const char*>(data), size);
   if (!belongs(bytes)) return -1;
   // From memory: a .gltf may use data: URIs only, and the limit is fixed (deterministic).
-  qjulia::detail::ReadContext ctx("fuzz", "", kMemory, "256 MiB (fuzzing)");
-  try {
+  expect_clean("the mesh", [&](qjulia::detail::ReadContext& ctx) {
     qjulia::ReadReport report;
-    const qjulia::TriMesh mesh = qjulia::detail::read_mesh_bytes(bytes, kFormat, ctx, &report);
-    check(mesh, report);
-  } catch (const qjulia::InvalidInput& e) {
-    if (std::strncmp(e.what(), "fuzz: ", 6) != 0) bug("a message that does not name the input");
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "mesh fuzz: unexpected exception: %s\n", e.what());
-    std::abort();
-  }
-  qjulia::detail::ReadContext params_ctx("fuzz", "", kMemory, "256 MiB (fuzzing)");
-  try {
-    read_params(bytes, params_ctx);
-  } catch (const qjulia::InvalidInput& e) {
-    if (std::strncmp(e.what(), "fuzz: ", 6) != 0) bug("a message that does not name the input");
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "mesh fuzz: unexpected exception from the parameters: %s\n", e.what());
-    std::abort();
-  }
+    check(qjulia::detail::read_mesh_bytes(bytes, kFormat, ctx, &report), report);
+  });
+  expect_clean("the parameters",
+               [&](qjulia::detail::ReadContext& ctx) { read_params(bytes, ctx); });
   return 0;
 }

@@ -3,6 +3,7 @@
 /// Internals of the io stage: one reader and one writer per format (gltf.cpp, obj.cpp,
 /// ply.cpp, stl.cpp, threemf.cpp), and what they share. mesh_io.cpp checks the input, dispatches
 /// here and checks what the readers return.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -55,6 +56,8 @@ class ReadContext {
   void charge(std::size_t bytes, const std::string& what);
   /// `count` items of `size` bytes, with the product checked for overflow.
   void charge(std::size_t count, std::size_t size, const std::string& what);
+  /// Gives back `bytes` charged before (a block that was freed).
+  void release(std::size_t bytes) { charged_ -= std::min(bytes, charged_); }
   std::size_t remaining() const { return limit_ - charged_; }
 
  private:
@@ -65,14 +68,22 @@ class ReadContext {
   std::size_t charged_ = 0;
 };
 
-/// Appends `item` to `v`, charging the context whenever the vector must grow (it doubles).
+/// Makes room for `needed` items in `v` (doubling), charging the new block while the old one
+/// still exists (the peak of a reallocation), then releasing the old one.
+template <class T>
+void reserve_charged(std::vector<T>& v, std::size_t needed, ReadContext& ctx, const char* what) {
+  if (needed <= v.capacity()) return;
+  const std::size_t old = v.capacity();
+  const std::size_t cap = std::max(needed, std::max<std::size_t>(1024, 2 * old));
+  ctx.charge(cap, sizeof(T), what);
+  v.reserve(cap);
+  ctx.release(old * sizeof(T));
+}
+
+/// Appends `item` to `v`, charging the context whenever the vector must grow.
 template <class T>
 void push_charged(std::vector<T>& v, const T& item, ReadContext& ctx, const char* what) {
-  if (v.size() == v.capacity()) {
-    const std::size_t grow = v.capacity() < 1024 ? 1024 : v.capacity();
-    ctx.charge(grow, sizeof(T), what);
-    v.reserve(v.capacity() + grow);
-  }
+  if (v.size() == v.capacity()) reserve_charged(v, v.size() + 1, ctx, what);
   v.push_back(item);
 }
 

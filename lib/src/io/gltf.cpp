@@ -390,6 +390,20 @@ tinygltf::Model load(std::string_view bytes, bool binary, ReadContext& ctx) {
   return model;
 }
 
+/// Bytes of one component of `type`, for the types qjulia reads (0 for the others).
+std::size_t component_size(int type) {
+  switch (type) {
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
+      return 1;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
+      return 2;
+    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
+    case TINYGLTF_COMPONENT_TYPE_FLOAT:
+      return 4;
+  }
+  return 0;
+}
+
 /// The bytes accessor `a` reads: checked against its view and buffer. Returns the first byte.
 const unsigned char* accessor_bytes(const tinygltf::Model& m, const tinygltf::Accessor& a,
                                     std::size_t elem, std::size_t& stride, const std::string& what,
@@ -423,24 +437,13 @@ std::vector<std::array<float, 3>> read_vec3(const tinygltf::Model& m, int index,
     ctx.fail(what + " accessor has type " + std::to_string(a.type) + " (expected VEC3" +
              (allow_vec4 ? " or VEC4)" : ")"));
   }
-  int csize = 0;
-  switch (a.componentType) {
-    case TINYGLTF_COMPONENT_TYPE_FLOAT:
-      csize = 4;
-      break;
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
-      csize = 1;
-      break;
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
-      csize = 2;
-      break;
-    default:
-      ctx.fail(what + " accessor has an unsupported component type");
-  }
+  const std::size_t csize = component_size(a.componentType);
+  if (csize == 0 || a.componentType == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT)
+    ctx.fail(what + " accessor has an unsupported component type");
   if (csize != 4 && !a.normalized) ctx.fail(what + " integer accessor must be normalized");
   if (a.count == 0) return {};
   std::size_t stride = 0;
-  const unsigned char* p = accessor_bytes(m, a, std::size_t(csize) * comps, stride, what, ctx);
+  const unsigned char* p = accessor_bytes(m, a, csize * comps, stride, what, ctx);
   ctx.charge(a.count, 12, what);
   std::vector<std::array<float, 3>> out(a.count);  // after the bounds check: count is trusted
   for (std::size_t i = 0; i < a.count; ++i, p += stride) {
@@ -465,20 +468,9 @@ std::vector<uint32_t> read_indices(const tinygltf::Model& m, int index, ReadCont
   const tinygltf::Accessor& a = m.accessors[index];
   if (a.type != TINYGLTF_TYPE_SCALAR || a.sparse.isSparse)
     ctx.fail("the index accessor is not a plain SCALAR");
-  std::size_t csize = 0;
-  switch (a.componentType) {
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE:
-      csize = 1;
-      break;
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT:
-      csize = 2;
-      break;
-    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT:
-      csize = 4;
-      break;
-    default:
-      ctx.fail("the index accessor has an unsupported component type");
-  }
+  const std::size_t csize = component_size(a.componentType);
+  if (csize == 0 || a.componentType == TINYGLTF_COMPONENT_TYPE_FLOAT)
+    ctx.fail("the index accessor has an unsupported component type");
   if (a.count == 0) return {};
   std::size_t stride = 0;
   const unsigned char* p = accessor_bytes(m, a, csize, stride, "the index", ctx);
@@ -522,6 +514,7 @@ void append_attribute(const tinygltf::Model& model, const tinygltf::Primitive& p
   }
   const auto values = read_vec3(model, it->second, name, allow_vec4, ctx);
   if (values.size() != count) ctx.fail(std::string(name) + " and POSITION counts differ");
+  reserve_charged(out, out.size() + values.size(), ctx, name);
   out.insert(out.end(), values.begin(), values.end());
 }
 
@@ -542,7 +535,8 @@ void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
     for (std::size_t i = 0; i < idx.size(); ++i) idx[i] = uint32_t(i);
   }
   if (idx.size() % 3 != 0) ctx.fail("a triangle primitive's index count is not a multiple of 3");
-  ctx.charge(idx.size() / 3 + pos.size(), 12, "the mesh");
+  reserve_charged(mesh.triangles, mesh.triangles.size() + idx.size() / 3, ctx, "triangles");
+  reserve_charged(mesh.positions, mesh.positions.size() + pos.size(), ctx, "vertices");
   for (std::size_t i = 0; i < idx.size(); i += 3) {
     for (int k = 0; k < 3; ++k)
       if (idx[i + k] >= pos.size()) {

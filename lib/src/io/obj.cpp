@@ -171,8 +171,7 @@ void read_face(LineCursor& c, const Lines& lines, ObjState& s, ReadContext& ctx)
   while (!c.at_end()) read_face_vertex(c.word(), lines, s, ctx);
   if (s.poly.size() < 3) ctx.fail(lines.where() + "a face needs at least 3 vertices");
   if (s.vertex_normal.size() < s.mesh.positions.size()) {
-    ctx.charge(s.mesh.positions.size() - s.vertex_normal.size(), sizeof(int64_t),
-               "vertex normal indices");
+    reserve_charged(s.vertex_normal, s.mesh.positions.size(), ctx, "vertex normal indices");
     s.vertex_normal.resize(s.mesh.positions.size(), -1);
   }
   for (std::size_t k = 0; k < s.poly.size(); ++k)

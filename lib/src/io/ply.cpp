@@ -349,8 +349,7 @@ void read_faces(const PlyElement& e, PlyBody& body, TriMesh& mesh, ReadContext& 
         (e.props[i].name == "vertex_indices" || e.props[i].name == "vertex_index"))
       iv = i;
   if (iv < 0) ctx.fail("the face element has no vertex_indices list");
-  ctx.charge(e.count, 12, "triangles");
-  mesh.triangles.reserve(mesh.triangles.size() + e.count);
+  reserve_charged(mesh.triangles, mesh.triangles.size() + e.count, ctx, "triangles");
   std::vector<uint32_t> poly;
   for (std::size_t f = 0; f < e.count; ++f) {
     for (int i = 0; i < int(e.props.size()); ++i) {
@@ -372,7 +371,7 @@ void read_faces(const PlyElement& e, PlyBody& body, TriMesh& mesh, ReadContext& 
         }
         poly[k] = uint32_t(idx);
       }
-      if (n > 3) ctx.charge(n - 3, 12, "triangles");  // one was charged with the count
+      reserve_charged(mesh.triangles, mesh.triangles.size() + n - 2, ctx, "triangles");
       for (std::size_t k = 1; k + 1 < n; ++k)
         mesh.triangles.push_back({poly[0], poly[k], poly[k + 1]});
     }

@@ -3,41 +3,37 @@
 #include <algorithm>
 #include <charconv>
 #include <cstdlib>
+#include <type_traits>
 
 #include "io/formats.h"
 
 namespace qjulia::detail {
 
-bool LineCursor::number(float& out) {
-  skip();
-  if (p < end && *p == '+') ++p;
-  const auto r = std::from_chars(p, end, out);
+namespace {
+
+/// from_chars, with what it refuses as out of range (denormals, overflow) left to strtod.
+template <class T>
+bool parse_number(LineCursor& c, T& out) {
+  c.skip();
+  if (c.p < c.end && *c.p == '+') ++c.p;
+  const auto r = std::from_chars(c.p, c.end, out);
   if (r.ec == std::errc::result_out_of_range) {
-    // Denormals and overflow: let strtof decide (from_chars refuses them).
-    const std::string token(p, std::size_t(std::min<std::ptrdiff_t>(r.ptr - p, 64)));
-    out = std::strtof(token.c_str(), nullptr);
-    p = r.ptr;
-    return true;
+    const std::string token(c.p, std::size_t(std::min<std::ptrdiff_t>(r.ptr - c.p, 64)));
+    if constexpr (std::is_same_v<T, float>)
+      out = std::strtof(token.c_str(), nullptr);
+    else
+      out = std::strtod(token.c_str(), nullptr);
+  } else if (r.ec != std::errc()) {
+    return false;
   }
-  if (r.ec != std::errc()) return false;
-  p = r.ptr;
+  c.p = r.ptr;
   return true;
 }
 
-bool LineCursor::number(double& out) {
-  skip();
-  if (p < end && *p == '+') ++p;
-  const auto r = std::from_chars(p, end, out);
-  if (r.ec == std::errc::result_out_of_range) {
-    const std::string token(p, std::size_t(std::min<std::ptrdiff_t>(r.ptr - p, 64)));
-    out = std::strtod(token.c_str(), nullptr);
-    p = r.ptr;
-    return true;
-  }
-  if (r.ec != std::errc()) return false;
-  p = r.ptr;
-  return true;
-}
+}  // namespace
+
+bool LineCursor::number(float& out) { return parse_number(*this, out); }
+bool LineCursor::number(double& out) { return parse_number(*this, out); }
 
 std::string comment_params(std::string_view text, const std::string& comment_prefix,
                            bool header_only) {

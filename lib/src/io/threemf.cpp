@@ -215,8 +215,9 @@ void append_object(PLib3MFBase* object, TriMesh& mesh, ReadContext& ctx) {
       lib3mf_meshobject_gettrianglecount(object, &nf) != LIB3MF_OK) {
     ctx.fail(last_error(object));
   }
-  ctx.charge(std::size_t(nv) + nf, 12, "vertices and triangles");
   const std::size_t base_v = mesh.positions.size(), base_f = mesh.triangles.size();
+  reserve_charged(mesh.positions, base_v + nv, ctx, "vertices");
+  reserve_charged(mesh.triangles, base_f + nf, ctx, "triangles");
   mesh.positions.resize(base_v + nv);
   mesh.triangles.resize(base_f + nf);
   DWORD got = 0;
