@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Builds the libFuzzer targets (clang-16, ASan+UBSan; tests/fuzz/CMakeLists.txt) in build-fuzz/
-# and runs every target: first the committed corpus tests/fuzz/corpus/TARGET once, then a fixed
+# and runs every target: first the committed corpus tests/fuzz/corpus/TARGET and the inputs that
+# once failed (tests/fuzz/regressions/TARGET) once, then a fixed
 # number of fuzzing runs with a fixed seed (-seed=1 -runs=N), so CI is deterministic. New inputs
 # go to build-fuzz/corpus/TARGET (the committed corpus is left as it is), crashes to
 # build-fuzz/artifacts/. Fails on the first crash, leak, timeout or sanitizer report.
@@ -15,10 +16,10 @@ root=$PWD
 # Runs per target, about 30 s each on one core of the CI machine (measured; see
 # docs/robustness.md). The 3MF reader is slow per input (lib3mf and libzip).
 declare -A runs=(
-  [formula_fuzz]=600000 [params_fuzz]=150000
-  [mesh_ply_ascii_fuzz]=300000 [mesh_ply_binary_le_fuzz]=300000 [mesh_ply_binary_be_fuzz]=300000
-  [mesh_obj_fuzz]=300000 [mesh_stl_ascii_fuzz]=300000 [mesh_stl_binary_fuzz]=300000
-  [mesh_gltf_fuzz]=60000 [mesh_glb_fuzz]=60000 [mesh_3mf_fuzz]=15000)
+  [formula_fuzz]=100000 [params_fuzz]=60000
+  [mesh_ply_ascii_fuzz]=130000 [mesh_ply_binary_le_fuzz]=130000 [mesh_ply_binary_be_fuzz]=120000
+  [mesh_obj_fuzz]=110000 [mesh_stl_ascii_fuzz]=120000 [mesh_stl_binary_fuzz]=150000
+  [mesh_gltf_fuzz]=40000 [mesh_glb_fuzz]=60000 [mesh_3mf_fuzz]=8000)
 declare -A corpus=(
   [formula_fuzz]=formula [params_fuzz]=params [mesh_ply_ascii_fuzz]=ply_ascii
   [mesh_ply_binary_le_fuzz]=ply_binary_le [mesh_ply_binary_be_fuzz]=ply_binary_be
@@ -60,20 +61,26 @@ for t in "${targets[@]}"; do
     -artifact_prefix="build-fuzz/artifacts/$t-")
   [[ -n "${dict[$t]:-}" ]] && flags+=(-dict="tests/fuzz/${dict[$t]}.dict")
   n=$((runs[$t] * scale))
-  ASAN_OPTIONS=$asan
+  # lib3mf leaks on every read (tests/fuzz/lsan.supp): the 3MF target fuzzes without leak
+  # checks and checks leaks on every input of the corpus before and after, with the full stack
+  # (lib3mf has no frame pointers), so the suppressions match lib3mf's functions only.
+  replay_asan=$asan fuzz_asan=$asan
   if [[ $t == mesh_3mf_fuzz ]]; then
-    # lib3mf leaks on every read (tests/fuzz/lsan.supp): leaks are checked once, when the
-    # process ends, not after every input; lib3mf has no frame pointers, so the suppressions
-    # are matched on the full stack.
-    ASAN_OPTIONS=$asan:fast_unwind_on_malloc=0
-    flags+=(-detect_leaks=0)
+    replay_asan=$asan:fast_unwind_on_malloc=0
+    fuzz_asan=${asan/detect_leaks=1/detect_leaks=0}
   fi
   echo "== $t: replay $seeds, then $n runs" >&2
   start=$SECONDS
-  "$exe" "${flags[@]}" -runs=0 "$seeds" 2>"build-fuzz/$t.replay.log" ||
-    { cat "build-fuzz/$t.replay.log" >&2; exit 1; }
-  "$exe" "${flags[@]}" -runs="$n" "$work" "$seeds" 2>"build-fuzz/$t.log" ||
+  replay=("$seeds")
+  [[ -d tests/fuzz/regressions/${corpus[$t]} ]] && replay+=("tests/fuzz/regressions/${corpus[$t]}")
+  ASAN_OPTIONS=$replay_asan "$exe" "${flags[@]}" -runs=0 "${replay[@]}" \
+    2>"build-fuzz/$t.replay.log" || { cat "build-fuzz/$t.replay.log" >&2; exit 1; }
+  ASAN_OPTIONS=$fuzz_asan "$exe" "${flags[@]}" -runs="$n" "$work" "$seeds" 2>"build-fuzz/$t.log" ||
     { tail -n 60 "build-fuzz/$t.log" >&2; exit 1; }
+  if [[ $t == mesh_3mf_fuzz ]]; then
+    ASAN_OPTIONS=$replay_asan "$exe" "${flags[@]}" -runs=0 "$work" 2>"build-fuzz/$t.leaks.log" ||
+      { tail -n 60 "build-fuzz/$t.leaks.log" >&2; exit 1; }
+  fi
   stats=$(grep -E "^stat::number_of_executed_units|^#[0-9]+.*(DONE|cov)" "build-fuzz/$t.log" | tail -2 | tr '\n' ' ')
   echo "   $t: $((SECONDS - start)) s; $stats" >&2
 done
