@@ -280,6 +280,40 @@ TEST_F(Cli, BenchRunsAPresetAndPrintsItsLine) {
   EXPECT_TRUE(files().empty()) << "bench writes nothing";
 }
 
+TEST_F(Cli, BenchPrintsTheKernelAgainstTheReference) {
+  const CliRun r = run("bench --kernel");
+  ASSERT_EQ(r.code, 0) << r.err;
+  // Two batches, each with the compiled and the reference speed and their ratio.
+  int rows = 0;
+  std::istringstream lines(r.out);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("surface band", 0) != 0 && line.rfind("whole box", 0) != 0) continue;
+    ++rows;
+    const auto ratio = std::stod(line.substr(line.find_last_of(' ') + 1));
+    EXPECT_GT(ratio, 0.0) << line;
+    EXPECT_LT(ratio, 10.0) << line;
+  }
+  EXPECT_EQ(rows, 2) << r.out;
+  EXPECT_TRUE(files().empty()) << "bench writes nothing";
+}
+
+TEST_F(Cli, TheWrittenMeshDoesNotDependOnTheThreadCount) {
+  // Byte-identical files from one and two threads, through sampling, extraction, dust removal
+  // and decimation, for both methods.
+  for (const std::string args :
+       {"--preset newton-cubic --resolution 96", "--preset classic-julia --resolution 128",
+        "--preset rosa-rational --resolution 80 --faces 20000"}) {
+    SCOPED_TRACE(args);
+    const CliRun one = run("mesh " + args + " --threads 1 -o one.ply");
+    const CliRun two = run("mesh " + args + " --threads 2 -o two.ply");
+    ASSERT_EQ(one.code, 0) << one.err;
+    ASSERT_EQ(two.code, 0) << two.err;
+    const std::string a = read_text(work_ / "one.ply"), b = read_text(work_ / "two.ply");
+    EXPECT_GT(a.size(), 1000u);
+    EXPECT_TRUE(a == b) << "the files differ";
+  }
+}
+
 // Needs the export stage (write_mesh).
 TEST_F(Cli, MeshWritesTheMeshAndTheStatsOfTheUnitBall) {
   const CliRun r = run("mesh --preset unit-ball --resolution 64 -o ball.ply --stats s.json");

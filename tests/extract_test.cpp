@@ -6,6 +6,7 @@
 #include <complex>
 #include <tuple>
 
+#include "base/mesh_check.h"
 #include "qjulia/field/classify.h"
 #include "qjulia/grid/sample.h"
 #include "qjulia/pipeline/pipeline.h"
@@ -124,6 +125,24 @@ TEST(Extract, SparseAndDenseSamplingGiveTheSameSurfaceOnEveryPreset) {
     for (std::size_t i = 0; i < a.size(); ++i) {
       EXPECT_EQ(a[i].first, b[i].first);
       EXPECT_NEAR(a[i].second, b[i].second, 1e-9 * std::abs(b[i].second));
+    }
+  }
+}
+
+TEST(Extract, TheSurfaceIsEmbeddedOnEveryPreset) {
+  // No two triangles meet other than in a shared corner or edge (CGAL's exact test), at two
+  // resolutions, so that cells of other shapes and sizes are met.
+  for (int resolution : {64, 100}) {
+    for (const std::string& name : preset_names()) {
+      SCOPED_TRACE(name + " at " + std::to_string(resolution));
+      Params p = preset(name);
+      p.resolution = resolution;
+      const SampledGrid grid = sample(p);
+      ExtractStats es;
+      const TriMesh mesh = extract(grid, {}, &es);
+      ASSERT_GT(mesh.triangles.size(), 0u);
+      EXPECT_EQ(es.unembedded_cells, 0u);
+      EXPECT_TRUE(detail::self_intersecting_face_pairs(mesh).empty());
     }
   }
 }

@@ -1,7 +1,7 @@
 // libFuzzer target for the formula compiler: any byte string must either compile or throw
 // qjulia::InvalidInput with a "formula ..." message; a compiled formula must evaluate without
-// crashing and deterministically. Build with -DQJULIA_BUILD_FUZZERS=ON, run e.g.
-//   build/tests/formula_fuzz -dict=tests/fuzz/formula.dict -max_total_time=60 tests/fuzz/corpus
+// crashing and deterministically. Built and run by scripts/fuzz.sh, or by hand:
+//   build-fuzz/tests/fuzz/formula_fuzz -dict=tests/fuzz/formula.dict tests/fuzz/corpus/formula
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>

@@ -16,8 +16,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 CLI = os.environ.get("QJULIA_CLI", str(ROOT / "build" / "bin" / "qjulia"))
 
-# Keys of --stats that measure the run rather than the mesh.
-RUN_KEYS = ("timings", "peak_rss_bytes")
+# The figures of the run: time, memory, and the estimate (it depends on the memory available
+# and on the output formats, which a Python call does not name).
+RUN_KEYS = ("timings", "peak_rss_bytes", "estimate")
 
 
 def run_cli(*args, check=True):

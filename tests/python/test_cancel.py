@@ -33,7 +33,7 @@ def test_progress_reports_the_stages_in_order_on_the_calling_thread():
     assert calls, "the callback was never called"
     stages = [s for s, _, _ in calls]
     assert set(stages) == set(m.stats["timings"]) - {"total"}  # every stage, however short
-    assert stages[0] == "sample" and stages[-1] == "measure"
+    assert stages[0] == "estimate" and stages[-1] == "measure"
     first = sorted(set(stages), key=stages.index)
     assert all(stages.index(s) + stages[stages.index(s):].count(s) - 1 ==
                len(stages) - 1 - stages[::-1].index(s) for s in first), "a stage came back"
@@ -63,7 +63,7 @@ def test_an_exception_in_the_callback_propagates_within_a_second():
         raise Stop(stage)
 
     t0 = time.monotonic()
-    with pytest.raises(Stop, match="sample"):
+    with pytest.raises(Stop, match="estimate"):  # the first stage
         qjulia.mesh(progress=progress, **LONG)
     assert time.monotonic() - t0 < 1
 

@@ -5,6 +5,7 @@
 #include "cli.h"
 #include "commands.h"
 #include "qjulia/base/error.h"
+#include "qjulia/field/kernel_speed.h"
 #include "qjulia/pipeline/pipeline.h"
 
 namespace qjulia::cli {
@@ -26,14 +27,18 @@ int cmd_bench(const Tokens& tokens, const CancelToken& cancel) {
                                       {"threads"},
                                       {"max-memory"},
                                       {"dense", false},
+                                      {"kernel", false},
                                       {"help", false}},
                                      "bench");
   if (args.has("help")) {
     std::puts(
         "usage: qjulia bench [--presets a,b] [--resolutions 256,512] [--threads T]\n"
-        "                    [--max-memory SIZE] [--dense]\n"
-        "Runs the pipeline (sample, extract, clean, measure; no export) and prints figures.\n"
+        "                    [--max-memory SIZE] [--dense] [--kernel]\n"
+        "Prints the speed of the compiled formula against a hand-written kernel of the same map\n"
+        "(h^2 + c, voxel-iterations per second on one core), then runs the pipeline (sample,\n"
+        "extract, clean, measure; no export) and prints figures.\n"
         "Defaults: classic-julia,newton-cubic at 256,512 on all cores.\n"
+        "  --kernel             only the kernel comparison\n"
         "  --resolutions LIST   comma-separated, each 1..1000000\n"
         "  --threads T          worker threads, 1..1024\n"
         "  --max-memory SIZE    the memory a run may use (4G, 512M; at least 1M)");
@@ -45,6 +50,17 @@ int cmd_bench(const Tokens& tokens, const CancelToken& cancel) {
     resolutions.push_back(static_cast<int>(parse_int(r, "--resolutions", kResolutionRange)));
   const ThreadLimit threads(args);
   const int nthreads = threads.threads();
+  {
+    const auto [band, box] = measure_kernel_speed();
+    std::printf("kernel of h^2 + c (classic-julia), one core, voxel-iterations per second:\n");
+    std::printf("%-24s %9s %14s %14s %8s\n", "batch", "points", "compiled", "reference", "ratio");
+    for (const KernelSpeed& k : {band, box})
+      std::printf("%-24s %9zu %10.3g (%s) %8.3g (%s) %8.2f\n", k.batch.c_str(), k.points,
+                  k.compiled, k.compiled_target.c_str(), k.reference, k.reference_isa.c_str(),
+                  k.reference > 0 ? k.compiled / k.reference : 0.0);
+    std::fflush(stdout);
+    if (args.has("kernel")) return 0;
+  }
   const auto max_memory = max_memory_from_args(args);
   std::printf("qjulia %s bench, %d thread(s)%s\n", version(), nthreads,
               args.has("dense") ? ", dense sampling" : "");

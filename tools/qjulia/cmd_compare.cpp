@@ -194,6 +194,14 @@ int cmd_compare(const Tokens& tokens, const CancelToken& cancel) {
   const std::string json_path = args.get("json").value_or("");
   const std::string colored_path = args.get("colored").value_or("");
   if (!colored_path.empty()) format_from_path(colored_path);  // a bad extension fails now
+  // The outputs are checked now: never an input (--colored A would replace A), a directory
+  // or a device.
+  OutputFiles files;
+  for (const Source& s : sources)
+    if (s.kind != Source::kPreset) files.add_mesh_input(s.value);
+  if (!json_path.empty()) files.claim(json_path);
+  if (!colored_path.empty())
+    for (const auto& f : output_files(colored_path)) files.claim(f);
 
   std::array<std::optional<Params>, 2> params;
   for (int i = 0; i < 2; ++i) {
@@ -230,8 +238,10 @@ int cmd_compare(const Tokens& tokens, const CancelToken& cancel) {
   std::printf("  time                 A %.2f s (%s), B %.2f s (%s), compare %.2f s\n", time_a,
               params[0] ? "meshed" : "read", time_b, params[1] ? "meshed" : "read", time_compare);
   throw_if_cancelled(&cancel);
-  if (!json_path.empty())
+  if (!json_path.empty()) {
     write_file_atomic(json_path, compare_to_json(r, sources[0].label(), sources[1].label()));
+    files.add(json_path);
+  }
   if (!colored_path.empty()) {
     TriMesh colored = a;
     const double hi = r.a_to_b.max > 0 ? r.a_to_b.max : 1.0;
@@ -241,6 +251,7 @@ int cmd_compare(const Tokens& tokens, const CancelToken& cancel) {
     eo.params_json = compare_legend_json(0.0, hi, sources[0].label(), sources[1].label());
     write_mesh(colored_path, colored, eo);
   }
+  files.commit();
   return 0;
 }
 

@@ -86,11 +86,21 @@ int cmd_mesh(const Tokens& tokens, const CancelToken& cancel) {
   // Checked before the long run, so a bad value fails at once.
   RenderOptions preview_options = render_options_from_args(args, "preview-");
   preview_options.cancel = &cancel;
+  if (preview) check_render_options(preview_options);
+  // Every output is checked before the long run: not an input, not a directory or device.
+  OutputFiles written;
+  if (!args.positional.empty()) written.add_input(args.positional[0]);
+  for (const auto& f : output_files(*out)) written.claim(f);
+  if (format_from_path(*out) == MeshFormat::kStl) written.claim(*out + ".json");
+  for (const char* name : {"vdb", "preview", "stats"})
+    if (auto f = args.get(name)) written.claim(*f);
 
   PipelineOptions popts;
   popts.dense = args.has("dense");
   popts.keep_grid = args.has("vdb");
   popts.max_memory = max_memory_from_args(args);
+  popts.outputs = {format_from_path(*out)};
+  popts.preview = preview.has_value();
   popts.cancel = &cancel;
   ProgressBar bar(args.has("quiet"));
   popts.progress = bar.callback();
@@ -101,7 +111,6 @@ int cmd_mesh(const Tokens& tokens, const CancelToken& cancel) {
         std::string("the solid is empty with these parameters (no grid point of the box "
                     "is in it); nothing written. Hint: check the bailout, the "
                     "iterations and the box (qjulia params shows them)"));
-  OutputFiles written;
   const std::string params_json = params_to_json(params);
   ExportOptions eopts;
   eopts.params_json = params_json;

@@ -12,6 +12,7 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "files.h"
 #include "qjulia/base/error.h"
 #include "qjulia/io/mesh_io.h"
 #include "qjulia/render/contact_sheet.h"
@@ -85,6 +86,9 @@ int cmd_render(const Tokens& tokens, const CancelToken& cancel) {
   for (const std::string& input : args.positional)
     if (!std::filesystem::is_regular_file(input))
       throw InvalidInput("input '" + input + "': no such file");
+  OutputFiles files;  // -o is checked now: never an input, a directory or a device
+  for (const std::string& input : args.positional) files.add_mesh_input(input);
+  files.claim(*out);
 
   const auto t0 = std::chrono::steady_clock::now();
   std::vector<std::pair<Image, std::string>> cells;

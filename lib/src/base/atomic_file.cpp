@@ -1,11 +1,12 @@
 #include "qjulia/base/atomic_file.h"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
-#include <cstdio>
 #include <cstring>
 #include <stdexcept>
 
@@ -14,36 +15,89 @@
 namespace qjulia {
 namespace {
 
-std::string errno_text() { return std::strerror(errno); }
+constexpr std::size_t kBlock = std::size_t(1) << 24;  // bytes per write() between checks
 
-std::string temp_name_for(const std::string& final_path) {
+std::string errno_text(int err) { return std::strerror(err); }
+
+std::string directory_of(const std::string& path) {
+  const auto slash = path.find_last_of('/');
+  if (slash == std::string::npos) return ".";
+  return slash == 0 ? "/" : path.substr(0, slash);
+}
+
+const char* kind_of(mode_t mode) {
+  if (S_ISDIR(mode)) return "a directory";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
+/// Throws InvalidInput when `path` exists and is not a regular file (links followed).
+void refuse_special_file(const std::string& path) {
+  struct stat st;
+  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode)) {
+    throw InvalidInput(path + ": exists and is " + kind_of(st.st_mode) +
+                       "; an output never replaces one (choose another output path)");
+  }
+}
+
+/// Errors of creating a file that are the caller's (a path that cannot be written: exit 2),
+/// not the program's.
+bool is_bad_path_error(int err) {
+  return err == ENOENT || err == ENOTDIR || err == EACCES || err == EPERM || err == EROFS ||
+         err == EISDIR || err == ENAMETOOLONG || err == ELOOP;
+}
+
+std::string temp_name_for(const std::string& final_path, unsigned attempt) {
   static std::atomic<unsigned> counter{0};
   const auto slash = final_path.find_last_of('/');
   const std::string dir = slash == std::string::npos ? "" : final_path.substr(0, slash + 1);
-  const std::string base = slash == std::string::npos ? final_path : final_path.substr(slash + 1);
+  std::string base = slash == std::string::npos ? final_path : final_path.substr(slash + 1);
+  if (base.size() > 200) base.resize(200);  // the suffix must still fit NAME_MAX
   return dir + "." + base + ".tmp-" + std::to_string(::getpid()) + "-" +
-         std::to_string(counter.fetch_add(1));
+         std::to_string(counter.fetch_add(1) + attempt);
 }
 
 }  // namespace
 
-AtomicFile::AtomicFile(std::string final_path) : final_path_(std::move(final_path)) {
-  temp_path_ = temp_name_for(final_path_);
-  fd_ = ::open(temp_path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-  if (fd_ < 0) {
-    const std::string msg = final_path_ + ": cannot create the file (" + errno_text() + ")";
-    // A path that cannot exist is bad input (exit code 2), not a failure of the program.
-    if (errno == ENOENT || errno == ENOTDIR || errno == EACCES || errno == EISDIR ||
-        errno == EROFS || errno == ENAMETOOLONG) {
-      throw InvalidInput(msg);
-    }
+void check_output_path(const std::string& path) {
+  if (path.empty()) throw InvalidInput("the output path is empty");
+  refuse_special_file(path);
+  struct stat st;
+  if (::stat(path.c_str(), &st) != 0 && errno != ENOENT) {
+    throw InvalidInput(path + ": cannot write the file (" + errno_text(errno) + ")");
+  }
+  const std::string dir = directory_of(path);
+  if (::stat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) {
+    throw InvalidInput(path + ": cannot write the file (the directory " + dir + " does not exist)");
+  }
+  if (::access(dir.c_str(), W_OK) != 0) {
+    throw InvalidInput(path + ": cannot write in the directory " + dir + " (" + errno_text(errno) +
+                       ")");
+  }
+}
+
+AtomicFile::AtomicFile(std::string final_path, const CancelToken* cancel)
+    : final_path_(std::move(final_path)), cancel_(cancel) {
+  check_output_path(final_path_);
+  for (unsigned attempt = 0; fd_ < 0; ++attempt) {
+    temp_path_ = temp_name_for(final_path_, attempt);
+    fd_ = ::open(temp_path_.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (fd_ >= 0) break;
+    const int err = errno;
+    if (err == EEXIST && attempt < 100) continue;  // another writer's name: take the next
+    temp_path_.clear();
+    const std::string msg = final_path_ + ": cannot create the file (" + errno_text(err) + ")";
+    if (is_bad_path_error(err)) throw InvalidInput(msg);
     throw std::runtime_error(msg);
   }
 }
 
 AtomicFile::~AtomicFile() {
   if (fd_ >= 0) ::close(fd_);
-  if (!committed_) ::unlink(temp_path_.c_str());
+  if (!committed_ && !temp_path_.empty()) ::unlink(temp_path_.c_str());
 }
 
 void AtomicFile::check_open() const {
@@ -54,10 +108,11 @@ void AtomicFile::write(const void* data, std::size_t size) {
   check_open();
   const char* p = static_cast<const char*>(data);
   while (size > 0) {
-    const ssize_t n = ::write(fd_, p, size);
+    throw_if_cancelled(cancel_);
+    const ssize_t n = ::write(fd_, p, std::min(size, kBlock));
     if (n < 0) {
       if (errno == EINTR) continue;
-      throw std::runtime_error(final_path_ + ": write failed (" + errno_text() + ")");
+      throw std::runtime_error(final_path_ + ": write failed (" + errno_text(errno) + ")");
     }
     p += n;
     size -= static_cast<std::size_t>(n);
@@ -72,16 +127,27 @@ void AtomicFile::close_for_external() {
 }
 
 void AtomicFile::commit() {
-  if (fd_ >= 0) {
-    const int fd = fd_;
-    fd_ = -1;
-    if (::close(fd) != 0) {
-      throw std::runtime_error(final_path_ + ": write failed (" + errno_text() + ")");
-    }
+  throw_if_cancelled(cancel_);
+  // fsync before the rename: the name must never point at data still in the page cache only.
+  // It also reports a full disk on file systems that allocate late.
+  int fd = fd_;
+  fd_ = -1;
+  if (fd < 0) fd = ::open(temp_path_.c_str(), O_RDONLY | O_CLOEXEC);  // written by a library
+  if (fd < 0 || ::fsync(fd) != 0) {
+    const int err = errno;
+    if (fd >= 0) ::close(fd);
+    throw std::runtime_error(final_path_ + ": write failed (" + errno_text(err) + ")");
   }
+  if (::close(fd) != 0) {
+    throw std::runtime_error(final_path_ + ": write failed (" + errno_text(errno) + ")");
+  }
+  refuse_special_file(final_path_);  // it may have appeared while the file was written
   if (::rename(temp_path_.c_str(), final_path_.c_str()) != 0) {
-    throw std::runtime_error(final_path_ + ": cannot rename the temporary file onto it (" +
-                             errno_text() + ")");
+    const int err = errno;
+    const std::string msg =
+        final_path_ + ": cannot rename the temporary file onto it (" + errno_text(err) + ")";
+    if (is_bad_path_error(err)) throw InvalidInput(msg);
+    throw std::runtime_error(msg);
   }
   committed_ = true;
 }

@@ -1,10 +1,9 @@
 #include "grid/bricks.h"
 
+#include <malloc.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
-
-#include <malloc.h>
 
 #include <algorithm>
 #include <cmath>
@@ -13,6 +12,7 @@
 #include <mutex>
 #include <unordered_map>
 
+#include "base/comm.h"
 #include "qjulia/base/error.h"
 
 namespace qjulia::detail {
@@ -74,6 +74,7 @@ struct Request {
 struct Outbox {
   std::vector<Request> missing;
   std::vector<Brick*> schedule;
+  std::vector<Request> remote;  // to bricks another rank owns
 };
 
 }  // namespace
@@ -102,6 +103,19 @@ void Brick::pack() {
   full.reset();
 }
 
+void Brick::assign(const Bits<kBrickPoints>& known_points, const float* values) {
+  full.reset();
+  known = known_points;
+  const std::size_t n = known.count();
+  packed.reset(new float[std::max<std::size_t>(n, 1)]);
+  std::copy(values, values + n, packed.get());
+  std::size_t k = 0;
+  for (int w = 0; w < (kBrickPoints + 63) / 64; ++w) {
+    rank[w] = static_cast<std::uint16_t>(k);
+    k += static_cast<std::size_t>(popcount64(known.w[w]));
+  }
+}
+
 bool virtual_value(const GridGeometry& geo, const Solid& solid, int i, int j, int k, float* v) {
   if (i < 0 || j < 0 || k < 0 || i >= geo.points[0] || j >= geo.points[1] || k >= geo.points[2]) {
     *v = 1.0f;
@@ -119,6 +133,7 @@ struct BrickSampler::Impl {
   const Solid& solid;
   const GridGeometry& geo;
   const SampleOptions& opts;
+  const Distribution* dist = nullptr;  // the ranks of a distributed run, or null
   std::atomic<std::uint64_t> evaluations{0};
 
   Impl(const Solid& s, const GridGeometry& g, const SampleOptions& o) : solid(s), geo(g), opts(o) {}
@@ -281,6 +296,10 @@ struct BrickSampler::Impl {
   // Puts a request in the inbox of the neighbour, or in `out` when that brick does not exist.
   void deliver(const Around& a, const Brick& br, const Request& r, Outbox& out) const {
     const BrickCoord to = brick_of_key(r.key);
+    if (dist && !dist->owns(to.x)) {
+      out.remote.push_back(r);
+      return;
+    }
     Brick* n = a.n[(to.x - br.at.x + 1) * 9 + (to.y - br.at.y + 1) * 3 + (to.z - br.at.z + 1)];
     if (!n) {
       out.missing.push_back(r);
@@ -336,8 +355,7 @@ struct BrickSampler::Impl {
                 const int nb[3] = {br.at.x + bo[0], br.at.y + bo[1], br.at.z + bo[2]};
                 if (!in_range(nb)) continue;
                 deliver(a, br,
-                        {brick_key(nb[0], nb[1], nb[2]), static_cast<std::uint8_t>(1u << lq)},
-                        out);
+                        {brick_key(nb[0], nb[1], nb[2]), static_cast<std::uint8_t>(1u << lq)}, out);
               }
             }
       }
@@ -415,14 +433,29 @@ struct BrickSampler::Impl {
       lo[k] = std::max(0, -1 - base[k]);
       hi[k] = std::min(kBrick - 1, geo.points[k] - 1 - base[k]);
     }
+    // The cells of a brick inside the grid, named by their lower corners (all 8^3 of them).
+    static const Pts kAllCells = [] {
+      Pts all;
+      for (int i = 0; i < kBrick; ++i)
+        for (int j = 0; j < kBrick; ++j)
+          for (int k = 0; k < kBrick; ++k) all.set(point_index(i, j, k));
+      return all;
+    }();
     Pts valid, frontier, visited, surface, sign;
-    for (int i = lo[0]; i <= hi[0]; ++i)
-      for (int j = lo[1]; j <= hi[1]; ++j)
-        for (int k = lo[2]; k <= hi[2]; ++k) valid.set(point_index(i, j, k));
+    if (lo[0] == 0 && lo[1] == 0 && lo[2] == 0 && hi[0] == kBrick - 1 && hi[1] == kBrick - 1 &&
+        hi[2] == kBrick - 1) {
+      valid = kAllCells;
+    } else {
+      for (int i = lo[0]; i <= hi[0]; ++i)
+        for (int j = lo[1]; j <= hi[1]; ++j)
+          for (int k = lo[2]; k <= hi[2]; ++k) valid.set(point_index(i, j, k));
+    }
     auto to_point = [](int c) { return point_index(c / 64, (c / 8) % 8, c % 8); };
-    for (int c = 0; c < kBrickCells; ++c) {
-      if (br.visited.test(c)) visited.set(to_point(c));
-      if (br.surface.test(c)) surface.set(to_point(c));
+    for (int w = 0; w < kBrickCells / 64; ++w) {
+      for (std::uint64_t bits = br.visited.w[w]; bits; bits &= bits - 1)
+        visited.set(to_point(w * 64 + __builtin_ctzll(bits)));
+      for (std::uint64_t bits = br.surface.w[w]; bits; bits &= bits - 1)
+        surface.set(to_point(w * 64 + __builtin_ctzll(bits)));
     }
     for (std::uint16_t c : cells) frontier.set(to_point(c));
     for (int w = 0; w < Pts::kWords; ++w)
@@ -511,15 +544,41 @@ struct BrickSampler::Impl {
       }
     }
   }
-
 };
 
 BrickSampler::BrickSampler(const Solid& solid, const GridGeometry& geo, const SampleOptions& opts)
     : solid_(solid), geo_(geo), opts_(opts) {}
 
+namespace {
+
+// The ranks' slabs: contiguous ranges of brick planes (x) of about equal weight.
+std::vector<int> deal_planes(const std::vector<double>& weight, int lowest, int ranks) {
+  double total = 0;
+  for (double w : weight) total += w;
+  std::vector<int> first(ranks + 1);
+  first[0] = lowest;
+  const int planes = static_cast<int>(weight.size());
+  double acc = 0;
+  int p = 0;
+  for (int r = 1; r < ranks; ++r) {
+    const double goal = total * r / ranks;
+    while (p < planes && acc + 0.5 * weight[p] < goal) acc += weight[p++];
+    first[r] = lowest + p;
+  }
+  first[ranks] = lowest + planes;
+  return first;
+}
+
+}  // namespace
+
 BrickList BrickSampler::run() {
   Impl im(solid_, geo_, opts_);
+  Distribution* dist = opts_.distribution;
+  if (dist && !dist->comm) dist = nullptr;
+  const int rank = dist ? dist->comm->rank() : 0, ranks = dist ? dist->comm->size() : 1;
   const auto& P = geo_.points;
+  // Brick planes: x from -1 to the last that holds a grid point.
+  const int lowest_plane = -1, highest_plane = (P[0] - 1) / kBrick;
   auto report = [&](double f) {
     im.check_cancel();
     if (opts_.progress && !opts_.progress(std::min(1.0, f))) throw Cancelled();
@@ -544,35 +603,109 @@ BrickList BrickSampler::run() {
     }
     return *slot;
   };
+  // This rank's bricks, and the planes of the neighbouring ranks' next to them (their copies,
+  // for the values and cells this rank's bricks read).
+  auto owned = [&](int bx) { return !dist || dist->owns(bx); };
+  auto kept = [&](int bx) {
+    return !dist || (bx >= dist->first[rank] - 1 && bx <= dist->first[rank + 1]);
+  };
+  // After each class of a distributed run: the requests to other ranks' bricks go to their
+  // owners (which create the bricks asked for and schedule them), and the bricks next to another
+  // rank that this class changed are copied there.
+  auto sync = [&](const std::vector<Brick*>& changed, std::vector<Request>& remote,
+                  Outbox& arrived) {
+    if (!dist) return;
+    Comm& comm = *dist->comm;
+    std::vector<Packer> to(ranks);
+    for (const Request& r : remote) {
+      Packer& p = to[dist->rank_of(brick_of_key(r.key).x)];
+      p.put(std::uint8_t{0});
+      p.put(r);
+    }
+    for (const Brick* b : changed) {
+      for (int side = 0; side < 2; ++side) {
+        const int edge_plane = side ? dist->first[rank + 1] - 1 : dist->first[rank];
+        const int peer = side ? rank + 1 : rank - 1;
+        if (b->at.x != edge_plane || peer < 0 || peer >= ranks) continue;
+        Packer& p = to[peer];
+        p.put(std::uint8_t{1});
+        p.put(b->key);
+        p.put(b->known);
+        p.put(b->visited);
+        const std::size_t n = b->known.count();
+        p.put_bytes(b->packed_values(), n * sizeof(float));
+      }
+    }
+    std::vector<std::string> out(ranks);
+    for (int r = 0; r < ranks; ++r) out[r] = std::move(to[r].data);
+    const std::vector<std::string> in = comm.exchange(out);
+    std::vector<Request> requests;
+    for (const std::string& message : in) {
+      Unpacker u(message);
+      while (!u.done()) {
+        if (u.get<std::uint8_t>() == 0) {
+          requests.push_back(u.get<Request>());
+        } else {
+          Brick& g = get(u.get<std::uint64_t>());
+          const auto known = u.get<Bits<kBrickPoints>>();
+          g.visited = u.get<Bits<kBrickCells>>();
+          std::vector<float> values(known.count());
+          u.get_bytes(values.data(), values.size() * sizeof(float));
+          g.assign(known, values.data());
+        }
+      }
+    }
+    std::sort(requests.begin(), requests.end(),
+              [](const Request& a, const Request& b) { return a.key < b.key; });
+    for (const Request& r : requests) Impl::deposit(get(r.key), r, arrived);
+    remote.clear();
+  };
   std::vector<std::uint64_t> refined8;  // bricks that run the stride-4 level (sorted)
   // The dense path evaluates every point of every brick itself (the reference the sparse path
   // is tested against); the sparse path shares points between neighbours.
   if (!opts_.dense && std::max({P[0], P[1], P[2]}) > 2 * kCoarse) im.map = &bricks;
+  im.dist = dist;
   // Runs f(n, batch) for every brick of `keys`, in eight classes by coordinate parity (see
-  // Impl::need), each class in parallel.
+  // Impl::need), each class in parallel; a distributed run copies the changed bricks to the
+  // neighbouring ranks after each class.
   auto by_class = [&](const std::vector<std::uint64_t>& keys, auto&& f) {
     std::vector<std::size_t> cls[8];
     for (std::size_t n = 0; n < keys.size(); ++n) {
       const BrickCoord c = brick_of_key(keys[n]);
       cls[(c.x & 1) | ((c.y & 1) << 1) | ((c.z & 1) << 2)].push_back(n);
     }
-    for (const auto& members : cls)
+    for (const auto& members : cls) {
       tbb::parallel_for(std::size_t{0}, members.size(), [&](std::size_t i) {
         im.check_cancel();
         thread_local Batch b;
         f(members[i], b);
       });
+      if (dist) {
+        std::vector<Brick*> changed;
+        for (std::size_t n : members) changed.push_back(bricks.find(keys[n])->second.get());
+        std::vector<Request> none;
+        Outbox ignored;
+        sync(changed, none, ignored);
+      }
+    }
   };
 
   // A grid of at most two coarse blocks a side is sampled densely: the coarse lattice would hold
   // too few points to see the surface.
   const bool dense = opts_.dense || std::max({P[0], P[1], P[2]}) <= 2 * kCoarse;
   if (dense) {
+    if (dist) {
+      // Every plane costs the same.
+      dist->first = deal_planes(std::vector<double>(highest_plane - lowest_plane + 1, 1.0),
+                                lowest_plane, ranks);
+    }
     // Every point of every brick; every cell examined.
     std::vector<std::uint64_t> keys;
-    for (int bx = -1; bx * kBrick <= P[0] - 1; ++bx)
+    for (int bx = -1; bx * kBrick <= P[0] - 1; ++bx) {
+      if (!owned(bx)) continue;
       for (int by = -1; by * kBrick <= P[1] - 1; ++by)
         for (int bz = -1; bz * kBrick <= P[2] - 1; ++bz) keys.push_back(brick_key(bx, by, bz));
+    }
     for (std::uint64_t k : keys) get(k);
     std::vector<Brick*> list;
     for (std::uint64_t k : keys) list.push_back(bricks[k].get());
@@ -611,7 +744,8 @@ BrickList BrickSampler::run() {
       }
     });
   } else {
-    // Level 16: the coarse lattice and the centres of its cells.
+    // Level 16: the coarse lattice and the centres of its cells (on every rank: it is small,
+    // and every rank deals the planes from it; its evaluations count on rank 0).
     const int s = kCoarse;
     int hi[3];
     for (int a = 0; a < 3; ++a) hi[a] = (P[a] - 1) / s;
@@ -642,7 +776,7 @@ BrickList BrickSampler::run() {
                      b.out.data() + from);
       });
       for (std::size_t i = 0; i < n; ++i) *b.dest[i] = b.out[i];
-      im.evaluations += n;
+      if (rank == 0) im.evaluations += n;
     }
     report(0.05);
     im.lattice = lattice.data();
@@ -683,6 +817,19 @@ BrickList BrickSampler::run() {
                                      return flag16[lattice_index(c[0], c[1], c[2])] != 0;
                                    }),
                     interior_.end());
+    if (dist) {
+      // The planes dealt by their flagged coarse cells (where the surface is, and so the work),
+      // half of a coarse cell to each of its two planes of bricks, plus a little for every plane.
+      std::vector<double> weight(highest_plane - lowest_plane + 1, 1.0);
+      for (int i = -1; i <= hi[0]; ++i)
+        for (int j = -1; j <= hi[1]; ++j)
+          for (int k = -1; k <= hi[2]; ++k) {
+            if (!flag16[lattice_index(i, j, k)]) continue;
+            for (int bx : {2 * i, 2 * i + 1})
+              if (bx >= lowest_plane && bx <= highest_plane) weight[bx - lowest_plane] += 32;
+          }
+      dist->first = deal_planes(weight, lowest_plane, ranks);
+    }
     // Level 8: the bricks of flagged coarse cells, by their corners; dilated by one brick.
     std::vector<std::uint64_t> candidates;
     for (int i = -1; i <= hi[0]; ++i)
@@ -691,7 +838,8 @@ BrickList BrickSampler::run() {
           if (!flag16[lattice_index(i, j, k)]) continue;
           for (int d = 0; d < 8; ++d) {
             const int nb[3] = {2 * i + (d & 1), 2 * j + ((d >> 1) & 1), 2 * k + (d >> 2)};
-            if (im.in_range(nb)) candidates.push_back(brick_key(nb[0], nb[1], nb[2]));
+            if (im.in_range(nb) && owned(nb[0]))
+              candidates.push_back(brick_key(nb[0], nb[1], nb[2]));
           }
         }
     std::sort(candidates.begin(), candidates.end());
@@ -701,14 +849,27 @@ BrickList BrickSampler::run() {
     by_class(candidates, [&](std::size_t n, Batch& b) {
       hit[n] = im.flag8(*bricks.find(candidates[n])->second, b);
     });
-    for (std::size_t n = 0; n < candidates.size(); ++n) {
-      if (!hit[n]) continue;
-      const BrickCoord c = brick_of_key(candidates[n]);
+    std::vector<std::uint64_t> hits;
+    for (std::size_t n = 0; n < candidates.size(); ++n)
+      if (hit[n]) hits.push_back(candidates[n]);
+    if (dist) {
+      // Every rank's hits: a hit next to this rank's slab refines bricks in it.
+      Packer p;
+      p.put_vector(hits);
+      hits.clear();
+      for (const std::string& m : dist->comm->allgather(p.data)) {
+        Unpacker u(m);
+        for (std::uint64_t k : u.get_vector<std::uint64_t>())
+          if (kept(brick_of_key(k).x)) hits.push_back(k);
+      }
+    }
+    for (std::uint64_t key : hits) {
+      const BrickCoord c = brick_of_key(key);
       for (int dx = -1; dx <= 1; ++dx)
         for (int dy = -1; dy <= 1; ++dy)
           for (int dz = -1; dz <= 1; ++dz) {
             const int nb[3] = {c.x + dx, c.y + dy, c.z + dz};
-            if (im.in_range(nb)) refined8.push_back(brick_key(nb[0], nb[1], nb[2]));
+            if (im.in_range(nb) && owned(nb[0])) refined8.push_back(brick_key(nb[0], nb[1], nb[2]));
           }
     }
     tbb::parallel_sort(refined8.begin(), refined8.end());
@@ -719,8 +880,10 @@ BrickList BrickSampler::run() {
     // a visit leaves requests in the inboxes of its neighbours, which are visited when their
     // class comes (in this round, or in the next for the classes already done), until no
     // request is left. Which bricks a class visits depends only on the classes before it, so
-    // the result does not depend on the thread count.
-    auto class_of = [](const Brick& b) { return (b.at.x & 1) | ((b.at.y & 1) << 1) | ((b.at.z & 1) << 2); };
+    // the result does not depend on the thread count, nor on the number of ranks.
+    auto class_of = [](const Brick& b) {
+      return (b.at.x & 1) | ((b.at.y & 1) << 1) | ((b.at.z & 1) << 2);
+    };
     std::vector<Brick*> pending[8];
     for (std::uint64_t k : refined8) {
       Brick& b = get(k);
@@ -735,8 +898,8 @@ BrickList BrickSampler::run() {
       for (int k = 0; k < 8; ++k) {
         std::vector<Brick*> members;
         members.swap(pending[k]);
-        if (members.empty()) continue;
-        any = true;
+        if (members.empty() && !dist) continue;
+        any = any || !members.empty();
         // A fixed order, whatever order the requests came in.
         std::sort(members.begin(), members.end(),
                   [](const Brick* a, const Brick* b) { return a->key < b->key; });
@@ -753,29 +916,37 @@ BrickList BrickSampler::run() {
           report(0.1 + 0.75 * std::min(1.0, double(visits) / (1.25 * first_round + 1)));
         }
         // Bricks asked for that do not exist yet; then the schedules, by class.
-        std::vector<Request> missing;
-        for (Outbox& o : outboxes) missing.insert(missing.end(), o.missing.begin(), o.missing.end());
+        std::vector<Request> missing, remote;
+        for (Outbox& o : outboxes) {
+          missing.insert(missing.end(), o.missing.begin(), o.missing.end());
+          remote.insert(remote.end(), o.remote.begin(), o.remote.end());
+        }
         std::sort(missing.begin(), missing.end(),
                   [](const Request& a, const Request& b) { return a.key < b.key; });
         Outbox created;
         for (const Request& r : missing) Impl::deposit(get(r.key), r, created);
+        sync(members, remote, created);
         for (Brick* b : created.schedule) pending[class_of(*b)].push_back(b);
         for (Outbox& o : outboxes)
           for (Brick* b : o.schedule) pending[class_of(*b)].push_back(b);
       }
       malloc_trim(0);  // the values of the visited bricks were repacked
+      if (dist) any = dist->comm->any(any);
     }
   }
   evaluations_ = im.evaluations;
-  // Bricks that hold nothing are dropped; the rest sorted by key.
+  // Bricks that hold nothing are dropped (and the other ranks' copies); the rest sorted by key.
   BrickList out;
   out.reserve(bricks.size());
   for (auto& [key, br] : bricks)
-    if (br->known.any()) out.push_back(std::move(br));
+    if (br->known.any() && owned(br->at.x)) out.push_back(std::move(br));
+  bricks.clear();
   tbb::parallel_sort(out.begin(), out.end(),
                      [](const std::unique_ptr<Brick>& a, const std::unique_ptr<Brick>& b) {
                        return a->key < b->key;
                      });
+  // Links to dropped bricks go.
+  for (auto& br : out) std::fill(std::begin(br->around), std::end(br->around), nullptr);
   report(0.9);
   return out;
 }

@@ -41,6 +41,15 @@ inline int point_index(int i, int j, int k) { return (i * kSide + j) * kSide + k
 /// Index of local cell (i, j, k), 0..7 each.
 inline int cell_index(int i, int j, int k) { return (i * kBrick + j) * kBrick + k; }
 
+/// The set bits of x, inline on every x86-64 (the baseline has no POPCNT instruction, and the
+/// library call costs more than these few operations).
+inline int popcount64(std::uint64_t x) {
+  x = x - ((x >> 1) & 0x5555555555555555ull);
+  x = (x & 0x3333333333333333ull) + ((x >> 2) & 0x3333333333333333ull);
+  x = (x + (x >> 4)) & 0x0f0f0f0f0f0f0f0full;
+  return static_cast<int>((x * 0x0101010101010101ull) >> 56);
+}
+
 /// A fixed-size bit set.
 template <int N>
 struct Bits {
@@ -55,7 +64,7 @@ struct Bits {
   }
   std::size_t count() const {
     std::size_t n = 0;
-    for (std::uint64_t x : w) n += static_cast<std::size_t>(__builtin_popcountll(x));
+    for (std::uint64_t x : w) n += static_cast<std::size_t>(popcount64(x));
     return n;
   }
   friend Bits operator&(const Bits& a, const Bits& b) {
@@ -127,7 +136,7 @@ struct Brick {
     if (full) return full[p];
     const std::size_t r = rank[p >> 6];
     const std::uint64_t below = known.w[p >> 6] & ((std::uint64_t{1} << (p & 63)) - 1);
-    return packed[r + static_cast<std::size_t>(__builtin_popcountll(below))];
+    return packed[r + static_cast<std::size_t>(popcount64(below))];
   }
   /// Where the value of point p goes (the brick must be unpacked).
   float* slot(int p) { return &full[p]; }
@@ -135,6 +144,11 @@ struct Brick {
   void unpack();
   /// Values of the known points only (about a third of the points): how bricks wait.
   void pack();
+  /// Sets the known points and their values (in point order), packed: a copy of another
+  /// process's brick.
+  void assign(const Bits<kBrickPoints>& known_points, const float* values);
+  /// The known values in point order (the brick packed).
+  const float* packed_values() const { return packed.get(); }
 
  private:
   std::unique_ptr<float[]> full;                      // kBrickPoints values, while sampled

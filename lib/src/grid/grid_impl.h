@@ -21,6 +21,8 @@ struct SampledGrid::Impl {
   std::vector<std::array<int, 3>> interior;
   std::uint64_t evaluations = 0;
   std::uint64_t dense_evaluations = 0;
+  /// The ranks of a distributed run (this process holds its slab's bricks), or null.
+  detail::Distribution* distribution = nullptr;
 };
 
 }  // namespace qjulia

@@ -147,6 +147,7 @@ SampledGrid sample(const Solid& solid, const SampleOptions& opts) {
   impl.bricks = sampler.run();
   impl.interior = sampler.interior_blocks();
   impl.evaluations = sampler.evaluations();
+  impl.distribution = opts.distribution;
   const auto& p = impl.geometry.points;
   impl.dense_evaluations = static_cast<std::uint64_t>(p[0]) * p[1] * p[2];
   if (opts.progress && !opts.progress(1.0)) throw Cancelled();

@@ -1,15 +1,18 @@
 #pragma once
-/// @file mesh_io.h
-/// Internals of the export stage: one writer and one reader per format, and the helpers they
-/// share. write_mesh()/read_mesh() in export.cpp check the input and dispatch here.
+/// @file formats.h
+/// Internals of the io stage: one reader and one writer per format (gltf.cpp, obj.cpp,
+/// ply.cpp, stl.cpp, threemf.cpp), and what they share. mesh_io.cpp checks the input, dispatches
+/// here and checks what the readers return.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
-#include "qjulia/io/mesh_io.h"
 #include "qjulia/base/mesh.h"
+#include "qjulia/io/mesh_io.h"
 
 namespace qjulia::detail {
 
@@ -23,6 +26,7 @@ struct ExportData {
   std::vector<std::string> params_lines;      ///< params_json split at newlines
   std::string unit;                           ///< ExportOptions::unit
   std::string generator;                      ///< "qjulia VERSION"
+  const CancelToken* cancel = nullptr;        ///< checked between blocks written
 };
 
 void write_gltf(const std::string& path, const ExportData& data, bool binary);
@@ -31,29 +35,79 @@ void write_ply(const std::string& path, const ExportData& data);
 void write_stl(const std::string& path, const ExportData& data);
 void write_3mf(const std::string& path, const ExportData& data);
 
-TriMesh read_gltf(const std::string& path, bool binary);
-TriMesh read_obj(const std::string& path);
-TriMesh read_ply(const std::string& path);
-TriMesh read_stl(const std::string& path);
-TriMesh read_3mf(const std::string& path);
+/// What a reader knows about its input and the memory it may use. Readers check every count
+/// in a file against the bytes that hold it, then charge() what they allocate, before they
+/// allocate it.
+class ReadContext {
+ public:
+  /// @param name          names the input in messages (the path, or ReadOptions::name)
+  /// @param base_dir      the folder of the file, where a .gltf's buffers are; "" when the
+  ///                      bytes come from memory (then only data: URIs are read)
+  /// @param memory_limit  bytes the reader may allocate in all
+  /// @param limit_text    describes the limit in messages ("4.0 GiB (MemAvailable)")
+  ReadContext(std::string name, std::string base_dir, std::size_t memory_limit,
+              std::string limit_text);
 
-std::string read_gltf_params(const std::string& path, bool binary);
-std::string read_3mf_params(const std::string& path);
-std::string read_obj_params(const std::string& path);
-std::string read_ply_params(const std::string& path);
+  const std::string& name() const { return name_; }
+  const std::string& base_dir() const { return base_dir_; }
+  /// Throws InvalidInput("NAME: " + reason).
+  [[noreturn]] void fail(const std::string& reason) const;
+  /// Counts `bytes` more against the limit. @throws TooLarge naming `what` when they do not fit.
+  void charge(std::size_t bytes, const std::string& what);
+  /// `count` items of `size` bytes, with the product checked for overflow.
+  void charge(std::size_t count, std::size_t size, const std::string& what);
+  /// Gives back `bytes` charged before (a block that was freed).
+  void release(std::size_t bytes) { charged_ -= std::min(bytes, charged_); }
+  std::size_t remaining() const { return limit_ - charged_; }
+
+ private:
+  std::string name_;
+  std::string base_dir_;
+  std::size_t limit_;
+  std::string limit_text_;
+  std::size_t charged_ = 0;
+};
+
+/// Makes room for `needed` items in `v` (doubling), charging the new block while the old one
+/// still exists (the peak of a reallocation), then releasing the old one.
+template <class T>
+void reserve_charged(std::vector<T>& v, std::size_t needed, ReadContext& ctx, const char* what) {
+  if (needed <= v.capacity()) return;
+  const std::size_t old = v.capacity();
+  const std::size_t cap = std::max(needed, std::max<std::size_t>(1024, 2 * old));
+  ctx.charge(cap, sizeof(T), what);
+  v.reserve(cap);
+  ctx.release(old * sizeof(T));
+}
+
+/// Appends `item` to `v`, charging the context whenever the vector must grow.
+template <class T>
+void push_charged(std::vector<T>& v, const T& item, ReadContext& ctx, const char* what) {
+  if (v.size() == v.capacity()) reserve_charged(v, v.size() + 1, ctx, what);
+  v.push_back(item);
+}
+
+/// Parses `bytes` in `format`, checks the mesh (validate_mesh) and applies the readers' policy
+/// (ReadReport): what read_mesh() and read_mesh_from_memory() do, and the fuzzers call.
+/// @throws InvalidInput naming ctx.name(); TooLarge.
+TriMesh read_mesh_bytes(std::string_view bytes, MeshFormat format, ReadContext& ctx,
+                        ReadReport* report);
+
+// Readers: parse the whole file in `bytes`. Each returns the mesh as the file holds it; the
+// caller (read_mesh) checks it with validate_mesh() and applies the policy of ReadReport.
+TriMesh read_gltf(std::string_view bytes, bool binary, ReadContext& ctx);
+TriMesh read_obj(std::string_view bytes, ReadContext& ctx);
+TriMesh read_ply(std::string_view bytes, ReadContext& ctx);
+TriMesh read_stl(std::string_view bytes, ReadContext& ctx);
+TriMesh read_3mf(std::string_view bytes, ReadContext& ctx);
+
+std::string read_gltf_params(std::string_view bytes, bool binary, const ReadContext& ctx);
+std::string read_3mf_params(std::string_view bytes, ReadContext& ctx);
+std::string read_obj_params(std::string_view bytes);
+std::string read_ply_params(std::string_view bytes);
 
 /// The comment prefix that marks parameter lines in OBJ ("# params ") and PLY ("params ").
 inline constexpr const char* kParamsTag = "params ";
-
-/// Reads a whole file. @throws InvalidInput "PATH: cannot read the file (reason)".
-std::string read_file(const std::string& path);
-
-/// Throws InvalidInput("PATH: " + reason).
-[[noreturn]] void fail(const std::string& path, const std::string& reason);
-
-/// Unit normal of triangle (a, b, c) by the cross product, or zero when it has no area.
-std::array<float, 3> face_normal(const std::array<float, 3>& a, const std::array<float, 3>& b,
-                                 const std::array<float, 3>& c);
 
 /// sRGB transfer function (IEC 61966-2-1) for 8-bit/text colour formats (PLY, OBJ).
 inline float linear_to_srgb(float c) {
@@ -62,9 +116,5 @@ inline float linear_to_srgb(float c) {
 inline float srgb_to_linear(float c) {
   return c <= 0.04045f ? c / 12.92f : std::pow((c + 0.055f) / 1.055f, 2.4f);
 }
-
-/// Merges corners with bit-identical positions (after -0 -> +0): `corners` holds 3 positions
-/// per triangle; fills mesh.positions and mesh.triangles.
-void weld_corners(const std::vector<std::array<float, 3>>& corners, TriMesh& mesh);
 
 }  // namespace qjulia::detail

@@ -1,90 +1,48 @@
-// The export stage's front door: format by extension, input checks, normals, dispatch.
+// The io stage's front door: the format by extension, the input check, normals and colours
+// for the writers, the file read whole, and the one check of every mesh a reader returns.
 #include "qjulia/io/mesh_io.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
-#include <fstream>
 #include <nlohmann/json.hpp>
-#include <unordered_map>
 
 #include "io/formats.h"
 #include "qjulia/base/error.h"
+#include "qjulia/base/memory.h"
+#include "qjulia/base/validate.h"
 
 namespace qjulia {
 namespace detail {
 
-[[noreturn]] void fail(const std::string& path, const std::string& reason) {
-  throw InvalidInput(path + ": " + reason);
+ReadContext::ReadContext(std::string name, std::string base_dir, std::size_t memory_limit,
+                         std::string limit_text)
+    : name_(std::move(name)),
+      base_dir_(std::move(base_dir)),
+      limit_(memory_limit),
+      limit_text_(std::move(limit_text)) {}
+
+void ReadContext::fail(const std::string& reason) const {
+  throw InvalidInput(name_ + ": " + reason);
 }
 
-std::string read_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail(path, std::string("cannot read the file (") + std::strerror(errno) + ")");
-  in.seekg(0, std::ios::end);
-  const std::streamoff size = in.tellg();
-  if (size < 0) fail(path, "cannot read the file (not a regular file)");
-  std::string data(static_cast<std::size_t>(size), '\0');
-  in.seekg(0);
-  if (!in.read(data.data(), size)) fail(path, "cannot read the file (read error)");
-  return data;
-}
-
-std::array<float, 3> face_normal(const std::array<float, 3>& a, const std::array<float, 3>& b,
-                                 const std::array<float, 3>& c) {
-  const double u[3] = {double(b[0]) - a[0], double(b[1]) - a[1], double(b[2]) - a[2]};
-  const double v[3] = {double(c[0]) - a[0], double(c[1]) - a[1], double(c[2]) - a[2]};
-  const double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
-                       u[0] * v[1] - u[1] * v[0]};
-  const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-  if (!(len > 0) || !std::isfinite(len)) return {0, 0, 0};
-  return {float(n[0] / len), float(n[1] / len), float(n[2] / len)};
-}
-
-void weld_corners(const std::vector<std::array<float, 3>>& corners, TriMesh& mesh) {
-  // Open addressing on the bit patterns: several times faster than std::unordered_map on
-  // millions of corners.
-  const std::size_t n = corners.size();
-  std::size_t cap = 16;
-  while (cap < n + n / 2) cap <<= 1;
-  std::vector<uint32_t> table(cap, UINT32_MAX);
-  mesh.positions.clear();
-  mesh.positions.reserve(n / 5 + 16);
-  mesh.triangles.resize(n / 3);
-  auto key_of = [](const std::array<float, 3>& p) {
-    std::array<uint32_t, 3> k;
-    for (int i = 0; i < 3; ++i) {
-      const float f = p[i] == 0.0f ? 0.0f : p[i];  // -0 and +0 are one position
-      std::memcpy(&k[i], &f, 4);
-    }
-    return k;
-  };
-  for (std::size_t c = 0; c < n; ++c) {
-    const auto k = key_of(corners[c]);
-    uint64_t h = (uint64_t(k[0]) * 0x9E3779B97F4A7C15ull) ^
-                 (uint64_t(k[1]) * 0xC2B2AE3D27D4EB4Full) ^
-                 (uint64_t(k[2]) * 0x165667B19E3779F9ull);
-    h ^= h >> 29;
-    std::size_t slot = h & (cap - 1);
-    uint32_t index;
-    for (;;) {
-      const uint32_t e = table[slot];
-      if (e == UINT32_MAX) {
-        index = uint32_t(mesh.positions.size());
-        const float* f = reinterpret_cast<const float*>(k.data());
-        mesh.positions.push_back({f[0], f[1], f[2]});
-        table[slot] = index;
-        break;
-      }
-      if (key_of(mesh.positions[e]) == k) {
-        index = e;
-        break;
-      }
-      slot = (slot + 1) & (cap - 1);
-    }
-    mesh.triangles[c / 3][c % 3] = index;
+void ReadContext::charge(std::size_t bytes, const std::string& what) {
+  if (bytes > limit_ - charged_) {
+    const double need = double(charged_) + double(bytes);
+    throw TooLarge(name_ + ": reading it needs at least " + format_bytes(need) + " (" + what +
+                   "), more than the " + limit_text_ + " it may use");
   }
+  charged_ += bytes;
+}
+
+void ReadContext::charge(std::size_t count, std::size_t size, const std::string& what) {
+  if (size != 0 && count > SIZE_MAX / size) charge(SIZE_MAX, what);
+  charge(count * size, what);
 }
 
 namespace {
@@ -111,33 +69,22 @@ std::vector<std::array<float, 3>> unit_normals(const TriMesh& mesh) {
   return out;
 }
 
-void check_mesh(const std::string& path, const TriMesh& mesh) {
-  const std::size_t nv = mesh.positions.size();
-  if (mesh.triangles.empty()) {
-    throw InvalidInput(path + ": the mesh is empty (0 triangles); nothing to write");
+/// The parameters pretty-printed and split into lines.
+void set_params(const std::string& path, const std::string& params_json, ExportData& data) {
+  if (params_json.empty()) return;
+  nlohmann::ordered_json params;
+  try {
+    params = nlohmann::ordered_json::parse(params_json);
+  } catch (const nlohmann::json::exception& e) {
+    throw InvalidInput(path + ": the parameters to record are not valid JSON (" + e.what() + ")");
   }
-  if (nv >= UINT32_MAX) throw InvalidInput(path + ": too many vertices for 32-bit indices");
-  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
-    const auto& t = mesh.triangles[f];
-    if (t[0] >= nv || t[1] >= nv || t[2] >= nv) {
-      throw InvalidInput(path + ": triangle " + std::to_string(f) + " has vertex index " +
-                         std::to_string(std::max({t[0], t[1], t[2]})) + " but the mesh has " +
-                         std::to_string(nv) + " vertices");
-    }
-  }
-  for (std::size_t v = 0; v < nv; ++v) {
-    const auto& p = mesh.positions[v];
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) {
-      throw InvalidInput(path + ": vertex " + std::to_string(v) + " has a non-finite position");
-    }
-  }
-  if (!mesh.normals.empty() && mesh.normals.size() != nv) {
-    throw InvalidInput(path + ": the mesh has " + std::to_string(mesh.normals.size()) +
-                       " normals for " + std::to_string(nv) + " vertices");
-  }
-  if (!mesh.colors.empty() && mesh.colors.size() != nv) {
-    throw InvalidInput(path + ": the mesh has " + std::to_string(mesh.colors.size()) +
-                       " colours for " + std::to_string(nv) + " vertices");
+  data.params_json = params.dump(2);
+  std::size_t start = 0;
+  for (;;) {
+    const auto nl = data.params_json.find('\n', start);
+    data.params_lines.push_back(data.params_json.substr(start, nl - start));
+    if (nl == std::string::npos) break;
+    start = nl + 1;
   }
 }
 
@@ -151,7 +98,103 @@ std::string lower_extension(const std::string& path) {
   return ext;
 }
 
+MeshFormat input_format(const std::string& path) {
+  try {
+    return format_from_path(path);
+  } catch (const InvalidInput&) {
+    const std::string ext = lower_extension(path);
+    throw InvalidInput(path + ": unknown mesh format " +
+                       (ext.empty() ? std::string("(no extension)") : "'" + ext + "'") +
+                       " (readable: .glb, .gltf, .obj, .ply, .stl, .3mf)");
+  }
+}
+
+/// A reader's context for the file `path` and the limits of `opts`.
+ReadContext file_context(const std::string& path, const ReadOptions& opts) {
+  const auto slash = path.find_last_of('/');
+  std::string dir = slash == std::string::npos ? "." : path.substr(0, slash);
+  if (dir.empty()) dir = "/";
+  const MemoryLimits limits = memory_limits(opts.max_memory);
+  return ReadContext(path, dir, limits.effective(), limits.describe());
+}
+
+/// The whole file, charged to `ctx` before it is allocated. Only a regular file is read (a
+/// FIFO would block, a device never ends).
+std::string read_whole_file(const std::string& path, ReadContext& ctx) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) ctx.fail(std::string("cannot read the file (") + std::strerror(errno) + ")");
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st;
+  if (::fstat(fd, &st) != 0)
+    ctx.fail(std::string("cannot read the file (") + std::strerror(errno) + ")");
+  if (!S_ISREG(st.st_mode)) ctx.fail("cannot read the file (not a regular file)");
+  const std::size_t size = std::size_t(st.st_size);
+  ctx.charge(size, "the file");
+  std::string data(size, '\0');
+  std::size_t done = 0;
+  while (done < size) {
+    const ssize_t n = ::read(fd, data.data() + done, size - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) ctx.fail(std::string("cannot read the file (") + std::strerror(errno) + ")");
+    if (n == 0) ctx.fail("cannot read the file (it shrank while it was read)");
+    done += std::size_t(n);
+  }
+  return data;
+}
+
+TriMesh parse(std::string_view bytes, MeshFormat format, ReadContext& ctx) {
+  switch (format) {
+    case MeshFormat::kGlb:
+      return read_gltf(bytes, true, ctx);
+    case MeshFormat::kGltf:
+      return read_gltf(bytes, false, ctx);
+    case MeshFormat::kObj:
+      return read_obj(bytes, ctx);
+    case MeshFormat::kPly:
+      return read_ply(bytes, ctx);
+    case MeshFormat::kStl:
+      return read_stl(bytes, ctx);
+    case MeshFormat::k3mf:
+      return read_3mf(bytes, ctx);
+  }
+  return {};
+}
+
+/// The policy of every reader: the mesh is checked (validate_mesh), triangles with a repeated
+/// index are dropped, unreferenced vertices kept.
+void finish_read(TriMesh& mesh, const ReadContext& ctx, ReadReport* report) {
+  validate_mesh(mesh, ctx.name());
+  ReadReport rep;
+  auto& tris = mesh.triangles;
+  const auto kept = std::remove_if(tris.begin(), tris.end(), [](const auto& t) {
+    return t[0] == t[1] || t[1] == t[2] || t[0] == t[2];
+  });
+  rep.dropped_faces = std::size_t(tris.end() - kept);
+  tris.erase(kept, tris.end());
+  if (tris.empty()) {
+    ctx.fail(rep.dropped_faces ? "every triangle has a repeated vertex index (no area)"
+                               : "the file has no triangles");
+  }
+  if (report) {
+    std::vector<char> used(mesh.positions.size(), 0);
+    for (const auto& t : tris) used[t[0]] = used[t[1]] = used[t[2]] = 1;
+    rep.unreferenced_vertices = std::size_t(std::count(used.begin(), used.end(), 0));
+    *report = rep;
+  }
+}
+
 }  // namespace
+
+TriMesh read_mesh_bytes(std::string_view bytes, MeshFormat format, ReadContext& ctx,
+                        ReadReport* report) {
+  TriMesh mesh = parse(bytes, format, ctx);
+  finish_read(mesh, ctx, report);
+  return mesh;
+}
+
 }  // namespace detail
 
 MeshFormat format_from_path(const std::string& path) {
@@ -192,26 +235,13 @@ const char* extension_of(MeshFormat format) {
 
 void write_mesh(const std::string& path, const TriMesh& mesh, const ExportOptions& opts) {
   const MeshFormat format = format_from_path(path);
-  detail::check_mesh(path, mesh);
+  validate_mesh(mesh, path, {/*faces=*/true});
+  throw_if_cancelled(opts.cancel);
   if (opts.progress && !opts.progress(0.0)) throw Cancelled();
 
-  detail::ExportData data{mesh, {}, {}, {}, {}, opts.unit, std::string("qjulia ") + QJULIA_VERSION};
-  if (!opts.params_json.empty()) {
-    nlohmann::ordered_json params;
-    try {
-      params = nlohmann::ordered_json::parse(opts.params_json);
-    } catch (const nlohmann::json::exception& e) {
-      throw InvalidInput(path + ": the parameters to record are not valid JSON (" + e.what() + ")");
-    }
-    data.params_json = params.dump(2);
-    std::size_t start = 0;
-    for (;;) {
-      const auto nl = data.params_json.find('\n', start);
-      data.params_lines.push_back(data.params_json.substr(start, nl - start));
-      if (nl == std::string::npos) break;
-      start = nl + 1;
-    }
-  }
+  detail::ExportData data{
+      mesh, {}, {}, {}, {}, opts.unit, std::string("qjulia ") + QJULIA_VERSION, opts.cancel};
+  detail::set_params(path, opts.params_json, data);
   data.normals = detail::unit_normals(mesh);
   if (!mesh.colors.empty()) {
     data.colors.resize(mesh.colors.size());
@@ -245,52 +275,37 @@ void write_mesh(const std::string& path, const TriMesh& mesh, const ExportOption
   if (opts.progress) opts.progress(1.0);
 }
 
-namespace {
-MeshFormat input_format(const std::string& path) {
-  try {
-    return format_from_path(path);
-  } catch (const InvalidInput&) {
-    const std::string ext = detail::lower_extension(path);
-    throw InvalidInput(path + ": unknown mesh format " +
-                       (ext.empty() ? std::string("(no extension)") : "'" + ext + "'") +
-                       " (readable: .glb, .gltf, .obj, .ply, .stl, .3mf)");
-  }
+TriMesh read_mesh(const std::string& path, const ReadOptions& opts) {
+  const MeshFormat format = detail::input_format(path);
+  detail::ReadContext ctx = detail::file_context(path, opts);
+  const std::string bytes = detail::read_whole_file(path, ctx);
+  return detail::read_mesh_bytes(bytes, format, ctx, opts.report);
 }
-}  // namespace
 
-TriMesh read_mesh(const std::string& path) {
-  switch (input_format(path)) {
-    case MeshFormat::kGlb:
-      return detail::read_gltf(path, true);
-    case MeshFormat::kGltf:
-      return detail::read_gltf(path, false);
-    case MeshFormat::kObj:
-      return detail::read_obj(path);
-    case MeshFormat::kPly:
-      return detail::read_ply(path);
-    case MeshFormat::kStl:
-      return detail::read_stl(path);
-    case MeshFormat::k3mf:
-      return detail::read_3mf(path);
-  }
-  return {};
+TriMesh read_mesh_from_memory(std::string_view bytes, MeshFormat format, const ReadOptions& opts) {
+  const MemoryLimits limits = memory_limits(opts.max_memory);
+  detail::ReadContext ctx(opts.name.empty() ? "<memory>" : opts.name, "", limits.effective(),
+                          limits.describe());
+  return detail::read_mesh_bytes(bytes, format, ctx, opts.report);
 }
 
 std::string read_mesh_params(const std::string& path) {
-  switch (input_format(path)) {
+  const MeshFormat format = detail::input_format(path);
+  detail::ReadContext ctx = detail::file_context(path, {});
+  const std::string bytes = detail::read_whole_file(path, ctx);
+  switch (format) {
     case MeshFormat::kGlb:
-      return detail::read_gltf_params(path, true);
+      return detail::read_gltf_params(bytes, true, ctx);
     case MeshFormat::kGltf:
-      return detail::read_gltf_params(path, false);
+      return detail::read_gltf_params(bytes, false, ctx);
     case MeshFormat::kObj:
-      return detail::read_obj_params(path);
+      return detail::read_obj_params(bytes);
     case MeshFormat::kPly:
-      return detail::read_ply_params(path);
+      return detail::read_ply_params(bytes);
     case MeshFormat::kStl:
-      detail::read_file(path);
       return "";
     case MeshFormat::k3mf:
-      return detail::read_3mf_params(path);
+      return detail::read_3mf_params(bytes, ctx);
   }
   return "";
 }

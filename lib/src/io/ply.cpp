@@ -1,13 +1,20 @@
-// PLY writer: binary little-endian, float xyz + normals, uchar sRGB colours, comments.
+// PLY. Writer: binary little-endian, float xyz + normals, uchar sRGB colours, the parameters as
+// comments. Reader: ascii, binary little and big endian; any property types; polygons fanned;
+// other elements skipped.
+#include <algorithm>
+#include <charconv>
 #include <cstring>
 
-#include "qjulia/base/atomic_file.h"
 #include "io/formats.h"
+#include "io/text.h"
+#include "qjulia/base/atomic_file.h"
 
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
-              "the PLY/STL writers assume a little-endian host");
+              "the PLY writer and reader assume a little-endian host");
 
 namespace qjulia::detail {
+
+// ---------------------------------------------------------------------------------- writer
 
 void write_ply(const std::string& path, const ExportData& data) {
   const TriMesh& mesh = data.mesh;
@@ -24,7 +31,7 @@ void write_ply(const std::string& path, const ExportData& data) {
   header += "element face " + std::to_string(mesh.triangles.size()) + "\n" +
             "property list uchar int vertex_indices\nend_header\n";
 
-  AtomicFile file(path);
+  AtomicFile file(path, data.cancel);
   BufferedWriter out(file);
   out.put(header);
   const std::size_t record = colored ? 27 : 24;
@@ -48,6 +55,357 @@ void write_ply(const std::string& path, const ExportData& data) {
   }
   out.flush();
   file.commit();
+}
+
+// ---------------------------------------------------------------------------------- reader
+
+namespace {
+
+enum class PlyType { kI8, kU8, kI16, kU16, kI32, kU32, kF32, kF64 };
+enum class PlyFormat { kAscii, kBinaryLE, kBinaryBE };
+
+bool ply_type(std::string_view s, PlyType& t) {
+  static const std::pair<const char*, PlyType> kNames[] = {
+      {"char", PlyType::kI8},    {"int8", PlyType::kI8},     {"uchar", PlyType::kU8},
+      {"uint8", PlyType::kU8},   {"short", PlyType::kI16},   {"int16", PlyType::kI16},
+      {"ushort", PlyType::kU16}, {"uint16", PlyType::kU16},  {"int", PlyType::kI32},
+      {"int32", PlyType::kI32},  {"uint", PlyType::kU32},    {"uint32", PlyType::kU32},
+      {"float", PlyType::kF32},  {"float32", PlyType::kF32}, {"double", PlyType::kF64},
+      {"float64", PlyType::kF64}};
+  for (const auto& [name, type] : kNames)
+    if (s == name) {
+      t = type;
+      return true;
+    }
+  return false;
+}
+
+std::size_t type_size(PlyType t) {
+  switch (t) {
+    case PlyType::kI8:
+    case PlyType::kU8:
+      return 1;
+    case PlyType::kI16:
+    case PlyType::kU16:
+      return 2;
+    case PlyType::kI32:
+    case PlyType::kU32:
+    case PlyType::kF32:
+      return 4;
+    case PlyType::kF64:
+      return 8;
+  }
+  return 0;
+}
+
+struct PlyProperty {
+  std::string name;
+  PlyType type = PlyType::kF32;
+  bool list = false;
+  PlyType count_type = PlyType::kU8;
+};
+
+struct PlyElement {
+  std::string name;
+  std::size_t count = 0;
+  std::vector<PlyProperty> props;
+};
+
+struct PlyHeader {
+  PlyFormat format = PlyFormat::kAscii;
+  std::vector<PlyElement> elements;
+  std::size_t body = 0;  ///< offset of the data after end_header
+};
+
+/// Reads values from the body: binary (either endianness) or ASCII tokens.
+class PlyBody {
+ public:
+  PlyBody(const ReadContext& ctx, std::string_view body, PlyFormat format)
+      : ctx_(ctx), p_(body.data()), end_(body.data() + body.size()), format_(format) {}
+
+  double read(PlyType t) {
+    if (format_ == PlyFormat::kAscii) return read_ascii();
+    const std::size_t n = type_size(t);
+    if (std::size_t(end_ - p_) < n) ctx_.fail("the file is truncated (data ends early)");
+    unsigned char b[8];
+    std::memcpy(b, p_, n);
+    p_ += n;
+    if (format_ == PlyFormat::kBinaryBE) std::reverse(b, b + n);
+    switch (t) {
+      case PlyType::kI8:
+        return double(int8_t(b[0]));
+      case PlyType::kU8:
+        return double(b[0]);
+      case PlyType::kI16:
+        return decode<int16_t>(b);
+      case PlyType::kU16:
+        return decode<uint16_t>(b);
+      case PlyType::kI32:
+        return decode<int32_t>(b);
+      case PlyType::kU32:
+        return decode<uint32_t>(b);
+      case PlyType::kF32:
+        return decode<float>(b);
+      case PlyType::kF64:
+        return decode<double>(b);
+    }
+    return 0;
+  }
+  float read_float(PlyType t) {
+    if (t == PlyType::kF32 && format_ == PlyFormat::kBinaryLE) {
+      if (std::size_t(end_ - p_) < 4) ctx_.fail("the file is truncated (data ends early)");
+      float v;
+      std::memcpy(&v, p_, 4);
+      p_ += 4;
+      return v;
+    }
+    return float(read(t));
+  }
+  /// A list's length: false unless it is a whole number in [0, max].
+  bool read_length(PlyType t, double max, std::size_t& length) {
+    const double n = read(t);
+    if (!(n >= 0 && n <= max) || n != std::floor(n)) return false;
+    length = std::size_t(n);
+    return true;
+  }
+
+ private:
+  template <class T>
+  static double decode(const unsigned char* b) {
+    T v;
+    std::memcpy(&v, b, sizeof v);
+    return double(v);
+  }
+  double read_ascii() {
+    while (p_ < end_ && (is_blank(*p_) || *p_ == '\n')) ++p_;
+    if (p_ >= end_) ctx_.fail("the file is truncated (data ends early)");
+    LineCursor c{p_, end_};
+    double v;
+    if (!c.number(v)) {
+      ctx_.fail("expected a number in the data, found '" +
+                std::string(p_, std::min<std::size_t>(10, std::size_t(end_ - p_))) + "'");
+    }
+    p_ = c.p;
+    return v;
+  }
+  const ReadContext& ctx_;
+  const char* p_;
+  const char* end_;
+  PlyFormat format_;
+};
+
+void parse_format_line(LineCursor& c, const Lines& lines, PlyHeader& h, const ReadContext& ctx) {
+  const auto f = c.word();
+  if (f == "ascii")
+    h.format = PlyFormat::kAscii;
+  else if (f == "binary_little_endian")
+    h.format = PlyFormat::kBinaryLE;
+  else if (f == "binary_big_endian")
+    h.format = PlyFormat::kBinaryBE;
+  else
+    ctx.fail(lines.where() + "unknown format '" + std::string(f) + "'");
+}
+
+void parse_property_line(LineCursor& c, const Lines& lines, PlyHeader& h, const ReadContext& ctx) {
+  if (h.elements.empty()) ctx.fail(lines.where() + "property before any element");
+  PlyProperty prop;
+  auto t = c.word();
+  if (t == "list") {
+    prop.list = true;
+    if (!ply_type(c.word(), prop.count_type)) ctx.fail(lines.where() + "bad list count type");
+    t = c.word();
+  }
+  if (!ply_type(t, prop.type))
+    ctx.fail(lines.where() + "unknown property type '" + std::string(t) + "'");
+  prop.name = std::string(c.word());
+  h.elements.back().props.push_back(prop);
+}
+
+PlyHeader parse_header(std::string_view text, const ReadContext& ctx) {
+  if (text.substr(0, 4) != "ply\n" && text.substr(0, 5) != "ply\r\n")
+    ctx.fail("not a PLY file (no 'ply' magic)");
+  PlyHeader h;
+  bool have_format = false;
+  Lines lines(text);
+  LineCursor c{nullptr, nullptr};
+  for (;;) {
+    if (!lines.next(c) || c.end == text.data() + text.size())
+      ctx.fail("the header is truncated (no end_header)");
+    const std::string_view key = c.word();
+    if (key == "end_header") {
+      h.body = std::size_t(c.end - text.data()) + 1;
+      break;
+    }
+    if (key == "format") {
+      parse_format_line(c, lines, h, ctx);
+      have_format = true;
+    } else if (key == "element") {
+      PlyElement e;
+      e.name = std::string(c.word());
+      const auto n = c.word();
+      const auto r = std::from_chars(n.data(), n.data() + n.size(), e.count);
+      if (r.ec != std::errc() || e.name.empty()) ctx.fail(lines.where() + "bad element line");
+      h.elements.push_back(e);
+    } else if (key == "property") {
+      parse_property_line(c, lines, h, ctx);
+    } else if (key != "comment" && key != "obj_info" && key != "ply" && !key.empty()) {
+      ctx.fail(lines.where() + "unexpected header line '" + std::string(key) + "'");
+    }
+  }
+  if (!have_format) ctx.fail("the header has no format line");
+  return h;
+}
+
+/// The counts of the header against the size of the body, before anything is allocated: the
+/// fixed-size part of every record (binary), or two characters per value (ascii: a digit and
+/// a separator).
+void check_body_size(const PlyHeader& h, std::size_t body, const ReadContext& ctx) {
+  std::size_t need = 0;
+  for (const auto& e : h.elements) {
+    std::size_t record = 0;
+    for (const auto& pr : e.props) {
+      if (h.format == PlyFormat::kAscii)
+        record += 2;
+      else
+        record += pr.list ? type_size(pr.count_type) : type_size(pr.type);
+    }
+    if (record && e.count > body / record + 1) {
+      ctx.fail("the file is truncated: element '" + e.name + "' announces " +
+               std::to_string(e.count) + " records of at least " + std::to_string(record) +
+               " bytes, the data has " + std::to_string(body) + " bytes");
+    }
+    need += record * e.count;
+  }
+  if (need > body + 1) {
+    ctx.fail("the file is truncated (" + std::to_string(body) + " data bytes, at least " +
+             std::to_string(need) + " needed)");
+  }
+}
+
+/// Skips one property value (a list and its items, or one scalar) of record `r` of `e`.
+void skip_property(PlyBody& body, const PlyProperty& pr, const PlyElement& e, std::size_t r,
+                   const ReadContext& ctx) {
+  if (!pr.list) {
+    body.read(pr.type);
+    return;
+  }
+  std::size_t n = 0;
+  if (!body.read_length(pr.count_type, 1e9, n))
+    ctx.fail(e.name + " " + std::to_string(r) + " has a bad list length");
+  for (std::size_t k = 0; k < n; ++k) body.read(pr.type);
+}
+
+/// The property index of each name in `names`, -1 when missing (list properties ignored).
+template <std::size_t N>
+std::array<int, N> find_properties(const PlyElement& e, const std::array<const char*, N>& names,
+                                   const std::array<const char*, N>& alt) {
+  std::array<int, N> index;
+  index.fill(-1);
+  for (int i = 0; i < int(e.props.size()); ++i) {
+    if (e.props[i].list) continue;
+    for (std::size_t k = 0; k < N; ++k)
+      if (e.props[i].name == names[k] || (alt[k] && e.props[i].name == alt[k])) index[k] = i;
+  }
+  return index;
+}
+
+void read_vertices(const PlyElement& e, PlyBody& body, TriMesh& mesh, ReadContext& ctx) {
+  const auto ix =
+      find_properties<9>(e, {"x", "y", "z", "nx", "ny", "nz", "red", "green", "blue"},
+                         {nullptr, nullptr, nullptr, nullptr, nullptr, nullptr, "r", "g", "b"});
+  if (ix[0] < 0 || ix[1] < 0 || ix[2] < 0) ctx.fail("the vertex element has no x, y, z");
+  const bool normals = ix[3] >= 0 && ix[4] >= 0 && ix[5] >= 0;
+  const bool colors = ix[6] >= 0 && ix[7] >= 0 && ix[8] >= 0;
+  const bool byte_color = colors && e.props[ix[6]].type == PlyType::kU8;
+  ctx.charge(e.count, 12 * (1 + normals + colors), "vertices");
+  mesh.positions.resize(e.count);
+  if (normals) mesh.normals.resize(e.count);
+  if (colors) mesh.colors.resize(e.count);
+  std::vector<float> row(e.props.size());
+  for (std::size_t v = 0; v < e.count; ++v) {
+    for (std::size_t i = 0; i < e.props.size(); ++i) {
+      const auto& pr = e.props[i];
+      if (pr.list) {
+        skip_property(body, pr, e, v, ctx);
+        row[i] = 0;
+      } else {
+        row[i] = body.read_float(pr.type);
+      }
+    }
+    mesh.positions[v] = {row[ix[0]], row[ix[1]], row[ix[2]]};
+    if (normals) mesh.normals[v] = {row[ix[3]], row[ix[4]], row[ix[5]]};
+    if (colors) {
+      const float s = byte_color ? 1.0f / 255.0f : 1.0f;
+      mesh.colors[v] = {srgb_to_linear(row[ix[6]] * s), srgb_to_linear(row[ix[7]] * s),
+                        srgb_to_linear(row[ix[8]] * s)};
+    }
+  }
+}
+
+void read_faces(const PlyElement& e, PlyBody& body, TriMesh& mesh, ReadContext& ctx) {
+  int iv = -1;
+  for (int i = 0; i < int(e.props.size()); ++i)
+    if (e.props[i].list &&
+        (e.props[i].name == "vertex_indices" || e.props[i].name == "vertex_index"))
+      iv = i;
+  if (iv < 0) ctx.fail("the face element has no vertex_indices list");
+  reserve_charged(mesh.triangles, mesh.triangles.size() + e.count, ctx, "triangles");
+  std::vector<uint32_t> poly;
+  for (std::size_t f = 0; f < e.count; ++f) {
+    for (int i = 0; i < int(e.props.size()); ++i) {
+      const auto& pr = e.props[i];
+      if (i != iv) {
+        skip_property(body, pr, e, f, ctx);
+        continue;
+      }
+      std::size_t n = 0;
+      if (!body.read_length(pr.count_type, 1e6, n))
+        ctx.fail("face " + std::to_string(f) + " has a bad vertex count");
+      if (n < 3) ctx.fail("face " + std::to_string(f) + " has fewer than 3 vertices");
+      poly.resize(n);
+      for (std::size_t k = 0; k < n; ++k) {
+        const double idx = body.read(pr.type);
+        if (!(idx >= 0 && idx < double(UINT32_MAX)) || idx != std::floor(idx)) {
+          ctx.fail("face " + std::to_string(f) + " has vertex index " + std::to_string(idx) +
+                   ", not a vertex number");
+        }
+        poly[k] = uint32_t(idx);
+      }
+      reserve_charged(mesh.triangles, mesh.triangles.size() + n - 2, ctx, "triangles");
+      for (std::size_t k = 1; k + 1 < n; ++k)
+        mesh.triangles.push_back({poly[0], poly[k], poly[k + 1]});
+    }
+  }
+}
+
+}  // namespace
+
+TriMesh read_ply(std::string_view text, ReadContext& ctx) {
+  const PlyHeader h = parse_header(text, ctx);
+  check_body_size(h, text.size() - h.body, ctx);
+  TriMesh mesh;
+  PlyBody body(ctx, text.substr(h.body), h.format);
+  bool have_vertices = false, have_faces = false;
+  for (const auto& e : h.elements) {
+    if (e.name == "vertex") {
+      if (have_vertices) ctx.fail("two vertex elements");
+      have_vertices = true;
+      read_vertices(e, body, mesh, ctx);
+    } else if (e.name == "face") {
+      have_faces = true;
+      read_faces(e, body, mesh, ctx);
+    } else if (!e.props.empty()) {
+      for (std::size_t r = 0; r < e.count; ++r)
+        for (const auto& pr : e.props) skip_property(body, pr, e, r, ctx);
+    }
+  }
+  if (!have_vertices) ctx.fail("no vertex element");
+  if (!have_faces || mesh.triangles.empty()) ctx.fail("no faces (a point cloud is not a mesh)");
+  return mesh;
+}
+
+std::string read_ply_params(std::string_view text) {
+  return comment_params(text, "comment ", true);
 }
 
 }  // namespace qjulia::detail

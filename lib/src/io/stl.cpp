@@ -1,13 +1,33 @@
-// Binary STL writer: 80-byte header naming qjulia and the unit, one face normal per triangle.
+// STL. Writer: binary, an 80-byte header naming qjulia and the unit, one face normal per
+// triangle. Reader: binary or ASCII, corners welded by position into an indexed mesh.
 #include <cstring>
 
-#include "qjulia/base/atomic_file.h"
 #include "io/formats.h"
+#include "io/text.h"
+#include "qjulia/base/atomic_file.h"
 
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
-              "the STL writer assumes a little-endian host");
+              "the STL writer and reader assume a little-endian host");
 
 namespace qjulia::detail {
+namespace {
+
+constexpr std::size_t kHeader = 84;  // 80 bytes of text, a 32-bit triangle count
+constexpr std::size_t kRecord = 50;  // normal, three corners, 16-bit attribute
+
+/// Unit normal of triangle (a, b, c) by the cross product, or zero when it has no area.
+std::array<float, 3> face_normal(const std::array<float, 3>& a, const std::array<float, 3>& b,
+                                 const std::array<float, 3>& c) {
+  const double u[3] = {double(b[0]) - a[0], double(b[1]) - a[1], double(b[2]) - a[2]};
+  const double v[3] = {double(c[0]) - a[0], double(c[1]) - a[1], double(c[2]) - a[2]};
+  const double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                       u[0] * v[1] - u[1] * v[0]};
+  const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  if (!(len > 0) || !std::isfinite(len)) return {0, 0, 0};
+  return {float(n[0] / len), float(n[1] / len), float(n[2] / len)};
+}
+
+}  // namespace
 
 void write_stl(const std::string& path, const ExportData& data) {
   const TriMesh& mesh = data.mesh;
@@ -19,20 +39,126 @@ void write_stl(const std::string& path, const ExportData& data) {
   std::memcpy(header, text.data(), std::min(text.size(), sizeof header));
   const uint32_t count = uint32_t(mesh.triangles.size());
 
-  AtomicFile file(path);
+  AtomicFile file(path, data.cancel);
   BufferedWriter out(file);
   out.put(header, sizeof header);
   out.put(reinterpret_cast<const char*>(&count), 4);
   for (const auto& t : mesh.triangles) {
-    char* p = out.reserve(50);
+    char* p = out.reserve(kRecord);
     const auto n = face_normal(mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]);
     std::memcpy(p, n.data(), 12);
     for (int k = 0; k < 3; ++k) std::memcpy(p + 12 + 12 * k, mesh.positions[t[k]].data(), 12);
     p[48] = p[49] = 0;
-    out.advance(50);
+    out.advance(kRecord);
   }
   out.flush();
   file.commit();
+}
+
+namespace {
+
+/// Merges corners with bit-identical positions (after -0 -> +0): `corners` holds 3 positions
+/// per triangle; fills mesh.positions and mesh.triangles.
+void weld_corners(const std::vector<std::array<float, 3>>& corners, TriMesh& mesh,
+                  ReadContext& ctx) {
+  // Open addressing on the bit patterns: several times faster than std::unordered_map on
+  // millions of corners.
+  const std::size_t n = corners.size();
+  std::size_t cap = 16;
+  while (cap < n + n / 2) cap <<= 1;
+  ctx.charge(cap, sizeof(uint32_t), "the welding table");
+  ctx.charge(n / 3, 12, "triangles");
+  ctx.charge(n / 5 + 16, 12, "vertex positions");
+  std::vector<uint32_t> table(cap, UINT32_MAX);
+  mesh.positions.clear();
+  mesh.positions.reserve(n / 5 + 16);
+  mesh.triangles.resize(n / 3);
+  auto key_of = [](const std::array<float, 3>& p) {
+    std::array<uint32_t, 3> k;
+    for (int i = 0; i < 3; ++i) {
+      const float f = p[i] == 0.0f ? 0.0f : p[i];  // -0 and +0 are one position
+      std::memcpy(&k[i], &f, 4);
+    }
+    return k;
+  };
+  for (std::size_t c = 0; c < n; ++c) {
+    const auto k = key_of(corners[c]);
+    uint64_t h = (uint64_t(k[0]) * 0x9E3779B97F4A7C15ull) ^
+                 (uint64_t(k[1]) * 0xC2B2AE3D27D4EB4Full) ^
+                 (uint64_t(k[2]) * 0x165667B19E3779F9ull);
+    h ^= h >> 29;
+    std::size_t slot = h & (cap - 1);
+    uint32_t index;
+    for (;;) {
+      const uint32_t e = table[slot];
+      if (e == UINT32_MAX) {
+        index = uint32_t(mesh.positions.size());
+        std::array<float, 3> p;
+        std::memcpy(p.data(), k.data(), 12);
+        push_charged(mesh.positions, p, ctx, "vertex positions");
+        table[slot] = index;
+        break;
+      }
+      if (key_of(mesh.positions[e]) == k) {
+        index = e;
+        break;
+      }
+      slot = (slot + 1) & (cap - 1);
+    }
+    mesh.triangles[c / 3][c % 3] = index;
+  }
+}
+
+void read_binary_corners(std::string_view data, std::vector<std::array<float, 3>>& corners,
+                         ReadContext& ctx) {
+  uint32_t count = 0;
+  std::memcpy(&count, data.data() + 80, 4);
+  ctx.charge(std::size_t(count) * 3, 12, "triangle corners");
+  corners.resize(std::size_t(count) * 3);
+  const char* p = data.data() + kHeader;
+  for (std::size_t t = 0; t < count; ++t, p += kRecord)
+    std::memcpy(corners[3 * t].data(), p + 12, 36);
+}
+
+void read_ascii_corners(std::string_view text, std::vector<std::array<float, 3>>& corners,
+                        ReadContext& ctx) {
+  Lines lines(text);
+  LineCursor c{nullptr, nullptr};
+  while (lines.next(c)) {
+    if (c.word() != "vertex") continue;
+    std::array<float, 3> v;
+    for (auto& x : v)
+      if (!c.number(x)) ctx.fail(lines.where() + "expected three numbers after 'vertex'");
+    push_charged(corners, v, ctx, "triangle corners");
+  }
+  if (corners.size() % 3 != 0)
+    ctx.fail("the ASCII STL is truncated (vertex count not a multiple of 3)");
+}
+
+}  // namespace
+
+TriMesh read_stl(std::string_view data, ReadContext& ctx) {
+  uint32_t count = 0;
+  if (data.size() >= kHeader) std::memcpy(&count, data.data() + 80, 4);
+  const bool binary = data.size() >= kHeader && kHeader + kRecord * count == data.size();
+  const std::size_t first = data.find_first_not_of(" \t\r\n");
+  const bool ascii = !binary && first != std::string_view::npos && data.substr(first, 5) == "solid";
+  std::vector<std::array<float, 3>> corners;
+  if (binary) {
+    read_binary_corners(data, corners, ctx);
+  } else if (ascii) {
+    read_ascii_corners(data.substr(first), corners, ctx);
+  } else if (data.size() < kHeader) {
+    ctx.fail("too short to be an STL file (" + std::to_string(data.size()) + " bytes)");
+  } else {
+    ctx.fail("truncated or not an STL file: the binary header says " + std::to_string(count) +
+             " triangles (" + std::to_string(kHeader + kRecord * count) + " bytes), the file has " +
+             std::to_string(data.size()) + " bytes");
+  }
+  if (corners.empty()) ctx.fail("the STL file has no triangles");
+  TriMesh mesh;
+  weld_corners(corners, mesh, ctx);
+  return mesh;
 }
 
 }  // namespace qjulia::detail

@@ -1,12 +1,14 @@
-// 3MF writer and reader through lib3mf 1.8 (its C interface). The only file that includes
-// lib3mf headers.
+// 3MF through lib3mf 1.8 (its C interface), writer and reader. The only file that includes
+// lib3mf headers. Before lib3mf sees a file, libzip (the zip library lib3mf reads it with)
+// decompresses every entry once, counting, so a zip bomb is refused before it is parsed.
 #include <Model/COM/NMR_DLLInterfaces.h>
+#include <zip.h>
 
 #include <cstring>
-#include <fstream>
+#include <memory>
 
-#include "qjulia/base/atomic_file.h"
 #include "io/formats.h"
+#include "qjulia/base/atomic_file.h"
 #include "qjulia/base/error.h"
 
 namespace qjulia::detail {
@@ -16,6 +18,11 @@ using namespace NMR;
 
 static_assert(sizeof(MODELMESHVERTEX) == 12 && sizeof(MODELMESHTRIANGLE) == 12,
               "lib3mf's vertex and triangle have the layout of TriMesh's arrays");
+
+/// A 3MF may decompress to at most this many times its size (and at least kMinDecompressed):
+/// the XML of a mesh compresses 4 to 10 times, a zip bomb a thousand times.
+constexpr std::size_t kMaxRatio = 100;
+constexpr std::size_t kMinDecompressed = std::size_t(1) << 20;
 
 /// Owns one lib3mf object and releases it.
 class Handle {
@@ -60,14 +67,18 @@ DWORD unit_code(const std::string& unit) {
   return MODELUNIT_MILLIMETER;  // "mm" and model units alike: 3MF's default
 }
 
-}  // namespace
+/// lib3mf's progress callback: false stops the writer when the token is set.
+bool keep_going(int, ProgressIdentifier, void* token) {
+  return !static_cast<const CancelToken*>(token)->requested();
+}
 
-void write_3mf(const std::string& path, const ExportData& data) {
+/// A model with one mesh object, the build item, and the metadata.
+void build_model(const std::string& path, const ExportData& data, Handle& model) {
   const TriMesh& mesh = data.mesh;
   auto check = [&](LIB3MFRESULT r, PLib3MFBase* obj, const char* what) {
     if (r != LIB3MF_OK) throw std::runtime_error(path + ": " + what + ": " + last_error(obj));
   };
-  Handle model, object, item, writer;
+  Handle object, item;
   check(lib3mf_createmodel(model.out()), nullptr, "creating the model");
   check(lib3mf_model_setunit(model.get(), unit_code(data.unit)), model.get(), "setting the unit");
   check(lib3mf_model_addmeshobject(model.get(), object.out()), model.get(), "adding the mesh");
@@ -92,78 +103,163 @@ void write_3mf(const std::string& path, const ExportData& data) {
     check(lib3mf_model_addmetadatautf8(model.get(), kParamsKey, data.params_json.c_str()),
           model.get(), "adding the parameters as metadata");
   }
-  check(lib3mf_model_querywriter(model.get(), "3mf", writer.out()), model.get(),
-        "creating the writer");
-  AtomicFile file(path);
-  file.close_for_external();
-  check(lib3mf_writer_writetofileutf8(writer.get(), file.temp_path().c_str()), writer.get(),
-        "writing");
+}
+
+/// lib3mf writes its zip stream here, in memory: lib3mf 1.8 terminates the process when a
+/// write to a file fails (it throws from a destructor), so only qjulia's AtomicFile writes.
+struct MemoryStream {
+  std::string bytes;
+  std::size_t position = 0;
+};
+
+unsigned write_callback(unsigned char* data, unsigned size, void* user) {
+  auto& s = *static_cast<MemoryStream*>(user);
+  if (s.position + size > s.bytes.size()) s.bytes.resize(s.position + size);
+  std::memcpy(s.bytes.data() + s.position, data, size);
+  s.position += size;
+  return 0;  // LIB3MF_OK
+}
+
+unsigned seek_callback(unsigned long long position, void* user) {
+  auto& s = *static_cast<MemoryStream*>(user);
+  if (position > s.bytes.size()) return 1;
+  s.position = std::size_t(position);
+  return 0;
+}
+
+}  // namespace
+
+void write_3mf(const std::string& path, const ExportData& data) {
+  Handle model, writer;
+  build_model(path, data, model);
+  if (lib3mf_model_querywriter(model.get(), "3mf", writer.out()) != LIB3MF_OK)
+    throw std::runtime_error(path + ": creating the writer: " + last_error(model.get()));
+  if (data.cancel) {
+    lib3mf_writer_setprogresscallback(writer.get(), keep_going,
+                                      const_cast<CancelToken*>(data.cancel));
+  }
+  AtomicFile file(path, data.cancel);  // checks the path before the work
+  MemoryStream stream;
+  if (lib3mf_writer_writetocallback(writer.get(), reinterpret_cast<void*>(write_callback),
+                                    reinterpret_cast<void*>(seek_callback), &stream) != LIB3MF_OK) {
+    throw_if_cancelled(data.cancel);
+    throw std::runtime_error(path + ": writing: " + last_error(writer.get()));
+  }
+  file.write(stream.bytes);
   file.commit();
 }
 
 namespace {
 
-void load(const std::string& path, Handle& model) {
-  {
-    std::ifstream probe(path);
-    if (!probe) read_file(path);
-  }  // a clear message when unreadable
+/// Frees a libzip archive.
+struct ZipCloser {
+  void operator()(zip_t* z) const { zip_discard(z); }
+};
+
+/// Decompresses every entry of the zip in `bytes` with libzip, discarding the output, and
+/// refuses the file when the total exceeds kMaxRatio times its size: zip headers may
+/// understate sizes, so they are counted, not believed. Returns the total.
+std::size_t check_decompressed_size(std::string_view bytes, ReadContext& ctx) {
+  const std::size_t cap = std::max(kMaxRatio * bytes.size(), kMinDecompressed);
+  zip_error_t error;
+  zip_error_init(&error);
+  zip_source_t* source = zip_source_buffer_create(bytes.data(), bytes.size(), 0, &error);
+  std::unique_ptr<zip_t, ZipCloser> archive(
+      source ? zip_open_from_source(source, ZIP_RDONLY, &error) : nullptr);
+  if (!archive) {
+    if (source) zip_source_free(source);
+    const std::string why = zip_error_strerror(&error);
+    zip_error_fini(&error);
+    ctx.fail("not a valid 3MF file (not a zip archive: " + why + ")");
+  }
+  zip_error_fini(&error);
+  std::size_t total = 0;
+  std::vector<char> buffer(std::size_t(1) << 16);
+  const zip_int64_t entries = zip_get_num_entries(archive.get(), 0);
+  for (zip_int64_t i = 0; i < entries; ++i) {
+    zip_file_t* f = zip_fopen_index(archive.get(), zip_uint64_t(i), 0);
+    if (!f) continue;  // lib3mf will report what it cannot open
+    zip_int64_t n;
+    while ((n = zip_fread(f, buffer.data(), buffer.size())) > 0) {
+      total += std::size_t(n);
+      if (total > cap) {
+        zip_fclose(f);
+        ctx.fail("refused: the archive decompresses to more than " + std::to_string(cap) +
+                 " bytes, " + std::to_string(kMaxRatio) +
+                 " times its size (a zip bomb or not a mesh)");
+      }
+    }
+    zip_fclose(f);
+  }
+  return total;
+}
+
+/// Parses `bytes` into `model` with lib3mf.
+void load(std::string_view bytes, Handle& model, ReadContext& ctx) {
+  const std::size_t decompressed = check_decompressed_size(bytes, ctx);
+  // lib3mf parses the XML as it streams; its model takes about as much as the XML.
+  ctx.charge(decompressed, "the 3MF model");
   Handle reader;
-  if (lib3mf_createmodel(model.out()) != LIB3MF_OK) fail(path, "lib3mf cannot create a model");
-  if (lib3mf_model_queryreader(model.get(), "3mf", reader.out()) != LIB3MF_OK) {
-    fail(path, "lib3mf cannot create a reader: " + last_error(model.get()));
+  if (lib3mf_createmodel(model.out()) != LIB3MF_OK) ctx.fail("lib3mf cannot create a model");
+  if (lib3mf_model_queryreader(model.get(), "3mf", reader.out()) != LIB3MF_OK)
+    ctx.fail("lib3mf cannot create a reader: " + last_error(model.get()));
+  BYTE* data = reinterpret_cast<BYTE*>(const_cast<char*>(bytes.data()));  // only read
+  if (lib3mf_reader_readfrombuffer(reader.get(), data, bytes.size()) != LIB3MF_OK)
+    ctx.fail("not a valid 3MF file (" + last_error(reader.get()) + ")");
+}
+
+/// Appends the vertices and triangles of one mesh object to `mesh`.
+void append_object(PLib3MFBase* object, TriMesh& mesh, ReadContext& ctx) {
+  DWORD nv = 0, nf = 0;
+  if (lib3mf_meshobject_getvertexcount(object, &nv) != LIB3MF_OK ||
+      lib3mf_meshobject_gettrianglecount(object, &nf) != LIB3MF_OK) {
+    ctx.fail(last_error(object));
   }
-  if (lib3mf_reader_readfromfileutf8(reader.get(), path.c_str()) != LIB3MF_OK) {
-    fail(path, "not a valid 3MF file (" + last_error(reader.get()) + ")");
+  const std::size_t base_v = mesh.positions.size(), base_f = mesh.triangles.size();
+  reserve_charged(mesh.positions, base_v + nv, ctx, "vertices");
+  reserve_charged(mesh.triangles, base_f + nf, ctx, "triangles");
+  mesh.positions.resize(base_v + nv);
+  mesh.triangles.resize(base_f + nf);
+  DWORD got = 0;
+  if (nv && lib3mf_meshobject_getvertices(
+                object, reinterpret_cast<MODELMESHVERTEX*>(mesh.positions.data() + base_v), nv,
+                &got) != LIB3MF_OK) {
+    ctx.fail(last_error(object));
   }
+  if (nf && lib3mf_meshobject_gettriangleindices(
+                object, reinterpret_cast<MODELMESHTRIANGLE*>(mesh.triangles.data() + base_f), nf,
+                &got) != LIB3MF_OK) {
+    ctx.fail(last_error(object));
+  }
+  for (std::size_t f = base_f; f < mesh.triangles.size(); ++f)
+    for (auto& i : mesh.triangles[f]) {
+      if (i >= nv) ctx.fail("a triangle index is out of range");
+      i += uint32_t(base_v);
+    }
 }
 
 }  // namespace
 
-TriMesh read_3mf(const std::string& path) {
+TriMesh read_3mf(std::string_view bytes, ReadContext& ctx) {
   Handle model, it;
-  load(path, model);
+  load(bytes, model, ctx);
   if (lib3mf_model_getmeshobjects(model.get(), it.out()) != LIB3MF_OK)
-    fail(path, last_error(model.get()));
+    ctx.fail(last_error(model.get()));
   TriMesh mesh;
   BOOL has_next = false;
   while (lib3mf_resourceiterator_movenext(it.get(), &has_next) == LIB3MF_OK && has_next) {
     Handle object;
     if (lib3mf_resourceiterator_getcurrent(it.get(), object.out()) != LIB3MF_OK)
-      fail(path, last_error(it.get()));
-    DWORD nv = 0, nf = 0;
-    if (lib3mf_meshobject_getvertexcount(object.get(), &nv) != LIB3MF_OK ||
-        lib3mf_meshobject_gettrianglecount(object.get(), &nf) != LIB3MF_OK) {
-      fail(path, last_error(object.get()));
-    }
-    const std::size_t base_v = mesh.positions.size(), base_f = mesh.triangles.size();
-    mesh.positions.resize(base_v + nv);
-    mesh.triangles.resize(base_f + nf);
-    DWORD got = 0;
-    if (nv && lib3mf_meshobject_getvertices(
-                  object.get(), reinterpret_cast<MODELMESHVERTEX*>(mesh.positions.data() + base_v),
-                  nv, &got) != LIB3MF_OK) {
-      fail(path, last_error(object.get()));
-    }
-    if (nf &&
-        lib3mf_meshobject_gettriangleindices(
-            object.get(), reinterpret_cast<MODELMESHTRIANGLE*>(mesh.triangles.data() + base_f), nf,
-            &got) != LIB3MF_OK) {
-      fail(path, last_error(object.get()));
-    }
-    for (std::size_t f = base_f; f < mesh.triangles.size(); ++f)
-      for (auto& i : mesh.triangles[f]) {
-        if (i >= nv) fail(path, "a triangle index is out of range");
-        i += uint32_t(base_v);
-      }
+      ctx.fail(last_error(it.get()));
+    append_object(object.get(), mesh, ctx);
   }
-  if (mesh.triangles.empty()) fail(path, "the 3MF file has no triangles");
+  if (mesh.triangles.empty()) ctx.fail("the 3MF file has no triangles");
   return mesh;
 }
 
-std::string read_3mf_params(const std::string& path) {
+std::string read_3mf_params(std::string_view bytes, ReadContext& ctx) {
   Handle model;
-  load(path, model);
+  load(bytes, model, ctx);
   DWORD count = 0;
   lib3mf_model_getmetadatacount(model.get(), &count);
   for (DWORD i = 0; i < count; ++i) {

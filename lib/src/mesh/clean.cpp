@@ -14,6 +14,7 @@
 #include "base/union_find.h"
 #include "mesh/stage_progress.h"
 #include "qjulia/base/error.h"
+#include "qjulia/base/validate.h"
 
 namespace qjulia {
 
@@ -177,15 +178,7 @@ TriMesh clean(const TriMesh& input, const CleanOptions& opts, CleanReport* repor
                        std::to_string(*opts.min_component_volume));
   if (!(opts.voxel_size >= 0))
     throw InvalidInput("clean: voxel_size must be >= 0, got " + std::to_string(opts.voxel_size));
-  const std::size_t nv = input.positions.size();
-  for (const auto& t : input.triangles)
-    for (uint32_t v : t)
-      if (v >= nv)
-        throw InvalidInput("clean: triangle index " + std::to_string(v) + " out of range (" +
-                           std::to_string(nv) + " vertices)");
-  for (const auto& p : input.positions)
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
-      throw InvalidInput("clean: mesh has a non-finite vertex position");
+  validate_mesh(input, "clean");
 
   CleanReport rep;
   TriMesh mesh = input;

@@ -22,6 +22,7 @@
 #include "base/mesh_json.h"
 #include "mesh/stage_progress.h"
 #include "qjulia/base/error.h"
+#include "qjulia/base/validate.h"
 
 namespace qjulia {
 
@@ -143,22 +144,8 @@ nlohmann::json directed_json(const DirectedDistance& d) {
 }  // namespace
 
 CompareResult compare(const TriMesh& a, const TriMesh& b, const CompareOptions& opts) {
-  if (a.triangles.empty()) throw InvalidInput("compare: the first surface (a) has no faces");
-  if (b.triangles.empty()) throw InvalidInput("compare: the second surface (b) has no faces");
-  for (const TriMesh* m : {&a, &b})
-    for (const auto& t : m->triangles)
-      if (!valid_face(*m, t))
-        throw InvalidInput(std::string("compare: surface ") + (m == &a ? "a" : "b") +
-                           " has a vertex index out of range (" +
-                           std::to_string(std::max({t[0], t[1], t[2]})) +
-                           " >= " + std::to_string(m->positions.size()) + ")");
-
-  for (const TriMesh* m : {&a, &b})
-    for (std::size_t v = 0; v < m->positions.size(); ++v)
-      for (float x : m->positions[v])
-        if (!std::isfinite(x))
-          throw InvalidInput(std::string("compare: surface ") + (m == &a ? "a" : "b") +
-                             " has a non-finite position at vertex " + std::to_string(v));
+  validate_mesh(a, "compare: the first surface (a)", {/*faces=*/true});
+  validate_mesh(b, "compare: the second surface (b)", {/*faces=*/true});
   CompareResult result;
   std::unique_ptr<detail::TriangleBvh> bvh_a, bvh_b;
   Samples sa, sb;

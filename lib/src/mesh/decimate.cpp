@@ -33,6 +33,7 @@
 #include "mesh/hausdorff.h"
 #include "mesh/stage_progress.h"
 #include "qjulia/base/error.h"
+#include "qjulia/base/validate.h"
 
 namespace qjulia {
 
@@ -302,12 +303,8 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
   if (opts.max_error && !(*opts.max_error > 0 && std::isfinite(*opts.max_error)))
     throw InvalidInput("decimate: max_error must be a positive number, got " +
                        std::to_string(*opts.max_error));
+  validate_mesh(mesh, "decimate");
   const std::size_t nv = mesh.positions.size();
-  for (const auto& t : mesh.triangles)
-    for (uint32_t v : t)
-      if (v >= nv)
-        throw InvalidInput("decimate: triangle index " + std::to_string(v) + " out of range (" +
-                           std::to_string(nv) + " vertices)");
 
   const std::size_t budget = opts.faces ? static_cast<std::size_t>(*opts.faces) : std::size_t(0);
   if (mesh.triangles.empty() || (opts.faces && budget >= mesh.face_count())) {

@@ -5,7 +5,9 @@
 #include <limits>
 #include <string>
 
+#include "base/mesh_check.h"
 #include "qjulia/base/error.h"
+#include "qjulia/base/validate.h"
 #include "qjulia/mesh/clean.h"
 
 namespace qjulia {
@@ -36,6 +38,7 @@ double scale_to_longest_side(TriMesh& mesh, double length) {
 }
 
 PrintabilityReport printability(const TriMesh& mesh, const PrintabilityOptions& opts) {
+  validate_mesh(mesh, "printability");
   PrintabilityReport r;
   const MeshMeasure m = measure(mesh, opts.cancel);
   const bool repeated_index =

@@ -12,6 +12,7 @@
 #include "base/mesh_check.h"
 #include "mesh/stage_progress.h"
 #include "qjulia/base/error.h"
+#include "qjulia/base/validate.h"
 #include "qjulia/mesh/clean.h"
 #include "qjulia/mesh/print.h"
 
@@ -78,6 +79,7 @@ TriMesh from_level_set(const FloatGrid& grid) {
 }  // namespace
 
 TriMesh thicken(const TriMesh& mesh, const ThickenOptions& opts) {
+  validate_mesh(mesh, "thicken");
   if (!(opts.min_thickness > 0) || !std::isfinite(opts.min_thickness))
     throw InvalidInput("thicken: min_thickness must be > 0, got " +
                        std::to_string(opts.min_thickness));

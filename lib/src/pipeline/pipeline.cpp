@@ -55,6 +55,23 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   RunStats& stats = result.stats;
   StageTimer timer(stats, opts.progress, opts.cancel);
 
+  // What the run will need, before it starts.
+  {
+    timer.start("estimate");
+    RunPlan plan;
+    plan.outputs = opts.outputs;
+    plan.dense = opts.dense;
+    plan.keep_grid = opts.keep_grid;
+    plan.preview = opts.preview;
+    plan.cancel = opts.cancel;
+    stats.estimate = estimate_run(params, plan);
+    const MemoryLimits limits = memory_limits(opts.max_memory);
+    stats.memory_limit = limits.effective();
+    stats.memory_limit_source = limits.describe();
+    timer.stop();
+    check_run(params, plan, stats.estimate, limits);
+  }
+
   SampleOptions sopts;
   sopts.dense = opts.dense;
   sopts.cancel = opts.cancel;
@@ -76,6 +93,7 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
       opts.keep_grid ? extract(grid, eopts, &estats) : extract(std::move(grid), eopts, &estats);
   timer.stop();
   stats.refine_evaluations = estats.evaluations;
+  stats.unembedded_cells = estats.unembedded_cells;
 
   // Dust: the extracted mesh is closed, manifold and free of duplicate vertices, and its
   // components are measured, so only the small ones go (the measures follow). A mesh whose
@@ -165,6 +183,7 @@ std::string stats_to_json(const RunStats& s, const Params& params) {
   j["evaluation_ratio"] =
       s.dense_evaluations ? static_cast<double>(s.evaluations) / s.dense_evaluations : 0.0;
   j["crossing_cells"] = s.crossing_cells;
+  j["unembedded_cells"] = s.unembedded_cells;
   j["voxel_size"] = s.voxel_size;
   j["grid_points"] = s.grid_points;
   const MeshMeasure& m = s.measure;
@@ -180,6 +199,16 @@ std::string stats_to_json(const RunStats& s, const Params& params) {
   timings["total"] = total;
   j["timings"] = timings;
   j["peak_rss_bytes"] = s.peak_rss_bytes;
+  const RunEstimate& e = s.estimate;
+  j["estimate"] = {{"peak_bytes", e.peak_bytes},
+                   {"faces", e.faces},
+                   {"vertices", e.vertices},
+                   {"crossing_cells", e.cells},
+                   {"exponent", e.exponent},
+                   {"probe_resolution", e.probe_resolution},
+                   {"largest_output_bytes", e.largest_output},
+                   {"memory_limit_bytes", s.memory_limit},
+                   {"memory_limit", s.memory_limit_source}};
   if (s.clean) {
     const CleanReport& c = *s.clean;
     j["clean"] = {{"components_before", c.components_before},

@@ -14,6 +14,7 @@
 #include <string>
 
 #include "qjulia/base/error.h"
+#include "qjulia/base/validate.h"
 #include "render/raster.h"
 
 namespace qjulia {
@@ -77,22 +78,7 @@ void validate_options(const RenderOptions& o) {
 
 void validate(const TriMesh& mesh, const RenderOptions& o) {
   validate_options(o);
-  const std::size_t nv = mesh.positions.size();
-  require(mesh.normals.empty() || mesh.normals.size() == nv,
-          "mesh has " + std::to_string(mesh.normals.size()) + " normals for " + std::to_string(nv) +
-              " vertices");
-  require(mesh.colors.empty() || mesh.colors.size() == nv,
-          "mesh has " + std::to_string(mesh.colors.size()) + " colours for " + std::to_string(nv) +
-              " vertices");
-  // Messages are built only on failure: these loops run over every face and vertex.
-  for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
-    for (std::uint32_t v : mesh.triangles[f])
-      if (v >= nv)
-        require(false, "face " + std::to_string(f) + " refers to vertex " + std::to_string(v) +
-                           " but the mesh has " + std::to_string(nv) + " vertices");
-  for (std::size_t v = 0; v < nv; ++v)
-    if (!finite3(to_vec(mesh.positions[v])))
-      require(false, "vertex " + std::to_string(v) + " has a non-finite position");
+  validate_mesh(mesh, "render");
 }
 
 /// R = Rz * Ry * Rx: rotation about X first, then Y, then Z (degrees).

@@ -111,25 +111,47 @@ bool on_upper_face(int code) {
   return p / 81 == kBrick || (p / 9) % 9 == kBrick || p % 9 == kBrick;
 }
 
-// BrickNeighbours::find, remembered by edge code (each vertex is a corner of up to four cells).
+// BrickNeighbours::find, remembered by edge code (each vertex is a corner of up to four cells),
+// in a table of the thread's that is never cleared: an entry counts when it carries this
+// lookup's stamp.
 class Lookup {
  public:
-  explicit Lookup(const BrickNeighbours& around) : around_(around) {
-    std::fill(std::begin(slot_), std::end(slot_), kUnset);
+  explicit Lookup(const BrickNeighbours& around) : around_(around), table_(table()) {
+    if (++table_.stamp == 0) {  // wrapped: clear once every 2^32 lookups
+      std::fill(std::begin(table_.stamps), std::end(table_.stamps), 0u);
+      table_.stamp = 1;
+    }
+    // The brick's own vertices at once (most corners are), the neighbours' when asked.
+    if (const std::vector<std::uint16_t>* own = around.codes[0])
+      for (std::size_t i = 0; i < own->size(); ++i) {
+        const int code = (*own)[i];
+        table_.slot[code] = static_cast<std::uint64_t>(i) << 3;
+        table_.stamps[code] = table_.stamp;
+      }
   }
   std::pair<int, std::size_t> operator()(int code) {
-    std::uint64_t& s = slot_[code];
-    if (s == kUnset) {
+    if (table_.stamps[code] != table_.stamp) {
       const auto [dir, index] = around_.find(code);
-      s = (static_cast<std::uint64_t>(index) << 3) | static_cast<std::uint64_t>(dir);
+      table_.slot[code] =
+          (static_cast<std::uint64_t>(index) << 3) | static_cast<std::uint64_t>(dir);
+      table_.stamps[code] = table_.stamp;
     }
+    const std::uint64_t s = table_.slot[code];
     return {static_cast<int>(s & 7), static_cast<std::size_t>(s >> 3)};
   }
 
  private:
-  static constexpr std::uint64_t kUnset = ~std::uint64_t{0};
+  struct Table {
+    std::uint32_t stamp = 0;
+    std::uint32_t stamps[kEdgeCodes] = {};
+    std::uint64_t slot[kEdgeCodes];
+  };
+  static Table& table() {
+    thread_local Table t;
+    return t;
+  }
   const BrickNeighbours& around_;
-  std::uint64_t slot_[kEdgeCodes];
+  Table& table_;
 };
 
 }  // namespace
@@ -220,7 +242,9 @@ BrickPlan plan_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
     const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
     float v[8];
     cell_values(br, c, v);
-    const CellCase& cc = cell_case(v);
+    const std::uint16_t number = cell_case_index(v);
+    out.cells.push_back((static_cast<std::uint32_t>(c) << 16) | number);
+    const CellCase& cc = cell_case_at(number);
     placed.clear();
     bool cell_ok = true;
     for (int L = 0; L < cc.loops; ++L) {
@@ -292,7 +316,7 @@ BrickPlan plan_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
   return out;
 }
 
-BrickFaces brick_triangles(const Brick& br, const BrickPlan& plan, const MeshTarget& target) {
+BrickFaces brick_triangles(const BrickPlan& plan, const MeshTarget& target) {
   const CubeTables& t = cube();
   BrickFaces out;
   Lookup lookup(target.around);
@@ -301,12 +325,10 @@ BrickFaces brick_triangles(const Brick& br, const BrickPlan& plan, const MeshTar
     return static_cast<std::uint32_t>(target.around.base[dir] + index);
   };
   std::size_t face = target.face_base, centre = target.centre_base, choice = 0;
-  for (int c = 0; c < kBrickCells; ++c) {
-    if (!br.surface.test(c)) continue;
+  for (const std::uint32_t cell : plan.cells) {
+    const int c = static_cast<int>(cell >> 16);
     const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
-    float v[8];
-    cell_values(br, c, v);
-    const CellCase& cc = cell_case(v);
+    const CellCase& cc = cell_case_at(static_cast<std::uint16_t>(cell & 0xffff));
     for (int L = 0; L < cc.loops; ++L) {
       const int len = cc.length[L];
       const std::uint8_t* loop = cc.edge[L];

@@ -59,6 +59,9 @@ struct BrickNeighbours {
 
 /// How the cells of a brick are triangulated: the table's way, except where listed.
 struct BrickPlan {
+  /// The surface cells in order, each as (local cell << 16) | its case number: all the second
+  /// pass needs of the brick's values, so the brick can go before it.
+  std::vector<std::uint32_t> cells;
   std::vector<std::array<float, 3>> centres;  ///< centre vertices, in the order of the cells
   std::vector<LoopChoice> choices;            ///< by cell, then loop
   std::uint32_t triangles = 0;                ///< the triangles the second pass writes
@@ -89,8 +92,8 @@ struct BrickFaces {
   std::vector<std::array<std::uint32_t, 2>> border[6];
 };
 
-/// The triangles of the surface cells of `brick` by its plan, written at the target's bases.
+/// The triangles of a brick's surface cells by its plan, written at the target's bases.
 /// Writes exactly the plan's count.
-BrickFaces brick_triangles(const Brick& brick, const BrickPlan& plan, const MeshTarget& target);
+BrickFaces brick_triangles(const BrickPlan& plan, const MeshTarget& target);
 
 }  // namespace qjulia::detail

@@ -151,7 +151,8 @@ struct CaseTable {
       for (int f = 0; f < 6; ++f) {
         const auto& fc = t.face_corners[f];
         int changes = 0;
-        for (int q = 0; q < 4; ++q) changes += (signs >> fc[q] & 1) != (signs >> fc[(q + 1) % 4] & 1);
+        for (int q = 0; q < 4; ++q)
+          changes += (signs >> fc[q] & 1) != (signs >> fc[(q + 1) % 4] & 1);
         if (changes == 4) ambiguous[signs] |= static_cast<std::uint8_t>(1u << f);
       }
     for (int signs = 0; signs < 256; ++signs)
@@ -182,8 +183,8 @@ struct CaseTable {
           if (has1 && has2) c.face[L][q] = static_cast<std::uint8_t>(f);
         }
       }
-      c.triangles[L] = static_cast<std::uint8_t>(
-          triangulate_loop(l.edge[L], len, [](int, int) { return 0.0; }, c.tri[L]));
+      c.triangles[L] = static_cast<std::uint8_t>(triangulate_loop(
+          l.edge[L], len, [](int, int) { return 0.0; }, c.tri[L]));
     }
     return c;
   }
@@ -206,7 +207,11 @@ CellLoops cell_loops(const float v[8]) {
   return loops_of_case(signs, saddles);
 }
 
-const CellCase& cell_case(const float v[8]) {
+const CellCase& cell_case(const float v[8]) { return cell_case_at(cell_case_index(v)); }
+
+const CellCase& cell_case_at(std::uint16_t index) { return case_table().cases[index]; }
+
+std::uint16_t cell_case_index(const float v[8]) {
   const CaseTable& table = case_table();
   const int signs = signs_of(v);
   const int amb = table.ambiguous[signs];
@@ -216,7 +221,7 @@ const CellCase& cell_case(const float v[8]) {
     for (int f = 0; f < 6; ++f)
       if (amb >> f & 1) saddles |= saddle_inside(t, v, f) << f;
   }
-  return table.cases[table.index[signs][saddles]];
+  return table.index[signs][saddles];
 }
 
 }  // namespace qjulia::detail

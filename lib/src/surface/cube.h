@@ -52,6 +52,9 @@ struct CellCase {
 
 /// The case of a cell with corner values v.
 const CellCase& cell_case(const float v[8]);
+/// The number of that case, and the case of a number.
+std::uint16_t cell_case_index(const float v[8]);
+const CellCase& cell_case_at(std::uint16_t index);
 
 /// Triangulates a loop of `len` (<= 12) cube edges so that no new edge joins two cube edges that
 /// share a face (the neighbour cell could make the same edge), by dynamic programming over

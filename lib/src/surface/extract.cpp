@@ -135,38 +135,57 @@ BrickMeasure measure_brick(const TriMesh& mesh, const BrickRange& r,
     cm.volume += volume;
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || area == 0) ++bm.degenerate;
   }
-  // Half-edges as 64-bit keys (smaller index high, larger low) with the direction in bit 0 of
-  // a separate flag: each edge inside the brick has its two half-edges here, opposite.
-  std::vector<std::uint64_t> half;
-  half.reserve(3 * r.faces);
+  // The half-edges, paired in a hash table by their edge: each edge inside the brick has its
+  // two half-edges here, opposite; one alone must be on a brick face (`border`, in the same
+  // direction), paired with the neighbour's later.
+  struct Slot {
+    std::uint64_t key;                               // (smaller index << 32 | larger) + 1; 0: empty
+    std::uint16_t up, down, border_up, border_down;  // half-edges smaller -> larger and back
+  };
+  thread_local std::vector<Slot> table;
+  thread_local std::vector<std::uint32_t> used;
+  std::size_t n_border = 0;
+  for (int d = 0; d < 6; ++d) n_border += border[d].size();
+  std::size_t size = 64;
+  while (size < 2 * (3 * r.faces + n_border)) size *= 2;
+  if (table.size() < size) table.resize(size);
+  used.clear();
+  const std::size_t mask = size - 1;
+  auto slot_of = [&](std::uint32_t a, std::uint32_t b) -> Slot& {
+    const std::uint64_t key = ((std::uint64_t{std::min(a, b)} << 32) | std::max(a, b)) + 1;
+    std::size_t h = (key * 0x9E3779B97F4A7C15ull) >> 20;
+    for (;; ++h) {
+      Slot& s = table[h & mask];
+      if (s.key == key) return s;
+      if (s.key == 0) {
+        s = {key, 0, 0, 0, 0};
+        used.push_back(static_cast<std::uint32_t>(h & mask));
+        return s;
+      }
+    }
+  };
   for (std::size_t f = 0; f < r.faces; ++f)
     for (int k = 0; k < 3; ++k) {
-      const std::uint64_t a = tri[f][k], b = tri[f][(k + 1) % 3];
-      half.push_back(a < b ? (a << 33) | (b << 1) | 1u : (b << 33) | (a << 1));
+      const std::uint32_t a = tri[f][k], b = tri[f][(k + 1) % 3];
+      Slot& s = slot_of(a, b);
+      ++(a < b ? s.up : s.down);
     }
-  std::vector<std::uint64_t> edge_of_border;
   for (int d = 0; d < 6; ++d)
     for (const auto& e : border[d]) {
-      const std::uint64_t a = e[0], b = e[1];
-      edge_of_border.push_back(a < b ? (a << 33) | (b << 1) | 1u : (b << 33) | (a << 1));
+      Slot& s = slot_of(e[0], e[1]);
+      ++(e[0] < e[1] ? s.border_up : s.border_down);
     }
-  std::sort(half.begin(), half.end());
-  std::sort(edge_of_border.begin(), edge_of_border.end());
-  std::size_t bi = 0;
-  for (std::size_t i = 0; i < half.size();) {
-    std::size_t j = i;
-    while (j < half.size() && (half[j] >> 1) == (half[i] >> 1)) ++j;
-    const std::size_t count = j - i;
-    if (count == 2 && half[i] != half[i + 1]) {
+  for (std::uint32_t u : used) {
+    Slot& s = table[u];
+    const int count = s.up + s.down;
+    if (count == 2 && s.up == 1 && s.border_up + s.border_down == 0) {
       ++bm.edges;
-    } else if (count == 1) {
-      // A border half-edge, paired with the neighbour's later.
-      while (bi < edge_of_border.size() && edge_of_border[bi] < half[i]) ++bi;
-      if (!(bi < edge_of_border.size() && edge_of_border[bi] == half[i])) ++bm.problems;
+    } else if (count == 1 && s.border_up == s.up && s.border_down == s.down) {
+      // a border half-edge
     } else {
-      bm.problems += count;
+      bm.problems += static_cast<std::size_t>(count > 0 ? count : 1);
     }
-    i = j;
+    s.key = 0;  // the table is left empty for the next brick
   }
   return bm;
 }
@@ -241,7 +260,13 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
   each_brick(0.35, 0.5, [&](std::size_t i) {
     plans[i] =
         detail::plan_brick(*impl.bricks[i], *impl.solid, impl.geometry, bopts, around(i, true));
+    if (release) impl.bricks[i].reset();  // the plan holds what is left to do with its values
   });
+  if (release) {
+    impl.bricks.clear();
+    impl.bricks.shrink_to_fit();
+    malloc_trim(0);
+  }
   std::size_t edges_total = 0, centres_total = 0, faces_total = 0, unmended = 0;
   std::uint64_t evaluations = 0;
   for (std::size_t i = 0; i < nb; ++i) {
@@ -274,6 +299,7 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
     std::vector<std::array<float, 3>>().swap(verts[i].positions);
     std::vector<std::array<float, 3>>().swap(plans[i].centres);
   }
+  malloc_trim(0);
   // Pass three: the triangles, with the measures of each brick.
   const std::array<double, 3> origin = impl.geometry.origin;
   std::vector<detail::BrickFaces> faces(nb);
@@ -285,16 +311,11 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
     target.centre_base = range[i].centre;
     target.face_base = range[i].face;
     target.around = around(i, false);
-    faces[i] = detail::brick_triangles(*impl.bricks[i], plans[i], target);
-    if (release) impl.bricks[i].reset();
+    faces[i] = detail::brick_triangles(plans[i], target);
+    std::vector<std::uint32_t>().swap(plans[i].cells);
     bm[i] = measure_brick(mesh, range[i], faces[i].border, origin,
                           face_component.data() + range[i].face);
   });
-  if (release) {
-    impl.bricks.clear();
-    impl.bricks.shrink_to_fit();
-    malloc_trim(0);
-  }
   // The half-edges on brick faces: each brick's +x, +y, +z lists against the neighbour's -x,
   // -y, -z lists, reversed.
   std::vector<std::size_t> border_edges(nb, 0), border_problems(nb, 0);
@@ -435,7 +456,7 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
     evaluations += detail::colorize(mesh, *impl.solid, impl.geometry.voxel, opts.color);
   if (stats) {
     stats->evaluations = evaluations;
-    stats->crossing_cells = unmended;
+    stats->unembedded_cells = unmended;
     stats->measure_valid = m.closed && degenerate == 0;
     stats->measure = std::move(m);
     stats->face_component = std::move(face_component);
@@ -452,7 +473,9 @@ TriMesh extract(const SampledGrid& grid, const ExtractOptions& opts, ExtractStat
 }
 
 TriMesh extract(SampledGrid&& grid, const ExtractOptions& opts, ExtractStats* stats) {
-  return extract_bricks(grid.impl(), true, opts, stats);
+  TriMesh mesh = extract_bricks(grid.impl(), true, opts, stats);
+  malloc_trim(0);  // the many small blocks of the bricks' passes, free now
+  return mesh;
 }
 
 }  // namespace qjulia

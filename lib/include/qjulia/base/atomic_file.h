@@ -1,26 +1,42 @@
 #pragma once
 /// @file atomic_file.h
-/// Write-to-temporary-then-rename, so a final file name never holds a half-written file.
+/// Write-to-temporary-then-rename, so a final file name never holds a half-written file. The
+/// one writer of every output file of the library and the CLI.
 #include <cstddef>
 #include <string>
 
+#include "qjulia/base/progress.h"
+
 namespace qjulia {
 
+/// Checks that `path` may be written as an output file: it does not exist or is a regular file
+/// (or a link to one), and its directory exists and is writable. An existing directory,
+/// device, FIFO or socket is never replaced or renamed over.
+/// @throws InvalidInput "PATH: why not" (exit code 2).
+void check_output_path(const std::string& path);
+
 /// A file written under a temporary name in the directory of `final_path` and renamed to
-/// `final_path` by commit(). If commit() is never reached (an exception, a failed write), the
-/// destructor removes the temporary file. A crash leaves at most a hidden temporary file, never
-/// a truncated file under the final name.
+/// `final_path` by commit(). If commit() is never reached (an exception, a failed write,
+/// cancellation), the destructor removes the temporary file. The data is flushed to the disk
+/// (fsync) before the rename, so after a crash the final name holds either the old file or the
+/// whole new one. A crash before commit() leaves at most a hidden temporary file
+/// (".NAME.tmp-PID-N"), never a truncated file under the final name. A final path that is a
+/// link to a regular file is replaced by the new file; the file it pointed to stays as it was.
 class AtomicFile {
  public:
-  /// Creates the temporary file (exclusive, next to `final_path`).
-  /// @throws std::runtime_error naming `final_path` when it cannot be created (e.g. the
-  ///         directory does not exist).
-  explicit AtomicFile(std::string final_path);
+  /// Checks `final_path` (check_output_path) and creates the temporary file beside it, with a
+  /// name no other writer uses (created exclusively). `cancel` is checked before every block
+  /// written (at most 16 MiB each).
+  /// @throws InvalidInput naming `final_path` when it may not be written (see
+  ///         check_output_path; also a read-only file system); std::runtime_error when the
+  ///         temporary file cannot be created for another reason.
+  explicit AtomicFile(std::string final_path, const CancelToken* cancel = nullptr);
   ~AtomicFile();
   AtomicFile(const AtomicFile&) = delete;
   AtomicFile& operator=(const AtomicFile&) = delete;
 
-  /// Appends `size` bytes. @throws std::runtime_error on a write error (disk full, ...).
+  /// Appends `size` bytes. @throws std::runtime_error naming the path on a write error (disk
+  /// full, file too large, I/O error); Cancelled when the token is set.
   void write(const void* data, std::size_t size);
   void write(const std::string& s) { write(s.data(), s.size()); }
 
@@ -29,7 +45,10 @@ class AtomicFile {
   const std::string& temp_path() const { return temp_path_; }
   void close_for_external();
 
-  /// Flushes, closes and renames onto the final path. @throws std::runtime_error on failure.
+  /// Flushes to the disk, closes and renames onto the final path.
+  /// @throws InvalidInput when the final path became a directory, device or FIFO meanwhile;
+  ///         std::runtime_error when flushing or renaming fails; Cancelled when the token is
+  ///         set. The temporary file is removed in every case.
   void commit();
 
   const std::string& final_path() const { return final_path_; }
@@ -38,6 +57,7 @@ class AtomicFile {
   void check_open() const;
   std::string final_path_;
   std::string temp_path_;
+  const CancelToken* cancel_ = nullptr;
   int fd_ = -1;
   bool committed_ = false;
 };

@@ -23,6 +23,10 @@ struct GridGeometry {
 /// The grid of `params` (not validated here).
 GridGeometry grid_geometry(const Params& params);
 
+namespace detail {
+struct Distribution;
+}
+
 /// Options of sample().
 struct SampleOptions {
   /// Evaluate every grid point instead of refining coarse blocks (the validation path).
@@ -31,6 +35,9 @@ struct SampleOptions {
   ProgressFn progress;
   /// Checked throughout the work; when requested, the stage throws Cancelled.
   const CancelToken* cancel = nullptr;
+  /// Internal: the ranks of a distributed run (qjulia-mpi); null for one process. The sampler
+  /// deals the bricks to the ranks (sets its `first`) and keeps only this rank's.
+  detail::Distribution* distribution = nullptr;
 };
 
 class Solid;

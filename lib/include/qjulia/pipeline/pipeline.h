@@ -15,6 +15,7 @@
 #include "qjulia/grid/sample.h"
 #include "qjulia/mesh/clean.h"
 #include "qjulia/mesh/decimate.h"
+#include "qjulia/pipeline/estimate.h"
 
 namespace qjulia {
 
@@ -29,9 +30,14 @@ struct PipelineOptions {
   StageProgressFn progress;
   /// Checked by every stage; when requested, run_pipeline() throws Cancelled.
   const CancelToken* cancel = nullptr;
-  /// The memory the run may use, bytes; unset: the smallest of MemAvailable, the cgroup limit
-  /// and the address-space limit. A run whose estimated peak exceeds it throws TooLarge.
+  /// The memory the run may use, bytes; the smallest of it, MemAvailable, the cgroup limit and
+  /// the address-space limit applies. A run whose estimated peak exceeds it throws TooLarge
+  /// before it starts (estimate.h).
   std::optional<std::size_t> max_memory;
+  /// The formats the mesh will be written in and whether a preview is rendered: for the
+  /// estimate, and so that a mesh too large for its format is refused before the work.
+  std::vector<MeshFormat> outputs;
+  bool preview = false;
 };
 
 /// Figures of one run, the content of --stats.
@@ -44,6 +50,9 @@ struct RunStats {
   std::uint64_t refine_evaluations = 0;
   std::uint64_t dense_evaluations = 0;  ///< grid points of a dense grid
   std::uint64_t crossing_cells = 0;
+  /// Cells whose triangles cross one another whatever triangulation was tried (0: the
+  /// extracted surface is embedded, free of self-intersections).
+  std::uint64_t unembedded_cells = 0;
   double voxel_size = 0;
   std::array<int, 3> grid_points{0, 0, 0};
   MeshMeasure measure;                                  ///< of the final mesh
@@ -52,8 +61,11 @@ struct RunStats {
   std::optional<CleanReport> clean;
   std::optional<DecimateReport> decimate;
   std::optional<std::size_t> self_intersections;
-  double scale = 1.0;  ///< factor applied by print.size_mm
-  std::string unit;    ///< "mm" when scaled for printing
+  RunEstimate estimate;             ///< made before the run
+  std::size_t memory_limit = 0;     ///< the effective limit it was checked against, bytes
+  std::string memory_limit_source;  ///< MemoryLimits::describe()
+  double scale = 1.0;               ///< factor applied by print.size_mm
+  std::string unit;                 ///< "mm" when scaled for printing
 };
 
 /// The result of run_pipeline().

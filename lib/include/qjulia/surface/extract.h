@@ -40,7 +40,7 @@ struct ExtractStats {
   std::vector<std::array<double, 6>> component_bbox;
   /// Cells whose triangles still cross one another after every triangulation the cell allows
   /// was tried (0 in an embedded mesh).
-  std::size_t crossing_cells = 0;
+  std::size_t unembedded_cells = 0;
 };
 
 /// Extracts the closed, oriented, manifold surface of the sampled solid, brick by brick in

@@ -1,0 +1,62 @@
+#pragma once
+/// @file estimate.h
+/// What a run will need before it starts: the size of its mesh and its peak memory, from two
+/// quick samplings at lower resolutions, and whether the output formats can hold the mesh.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "qjulia/base/memory.h"
+#include "qjulia/base/progress.h"
+#include "qjulia/field/params.h"
+#include "qjulia/io/mesh_io.h"
+
+namespace qjulia {
+
+/// What the run does besides sampling, extracting and cleaning (which every run does).
+struct RunPlan {
+  std::vector<MeshFormat> outputs;  ///< the formats the mesh is written in
+  bool dense = false;               ///< every grid point evaluated
+  bool keep_grid = false;           ///< the grid kept and written (--vdb)
+  bool preview = false;             ///< a picture rendered
+  const CancelToken* cancel = nullptr;
+};
+
+/// The estimate of a run.
+struct RunEstimate {
+  int resolution = 0;              ///< of the run
+  int probe_resolution = 0;        ///< the finer of the two samplings it extrapolates from
+  std::uint64_t probe_cells = 0;   ///< crossing cells found there
+  std::uint64_t probe_bricks = 0;  ///< and bricks
+  double exponent = 2;             ///< crossing cells grow as resolution^exponent
+  std::uint64_t cells = 0;         ///< crossing cells expected at `resolution`
+  std::uint64_t faces = 0;         ///< faces of the extracted mesh
+  std::uint64_t vertices = 0;      ///< and vertices
+  std::uint64_t final_faces = 0;   ///< faces written (after decimation)
+  std::size_t peak_bytes = 0;      ///< peak resident memory of the whole run
+  std::size_t largest_output = 0;  ///< bytes of the largest output file
+};
+
+/// Samples `params` at two lower resolutions (at most 1/4 of the run's and 256, sampling only)
+/// and extrapolates the crossing cells by the power law between them; the memory model's
+/// coefficients are measured on this machine's builds (docs/design.md, "Memory").
+/// @throws InvalidInput for invalid params; Cancelled.
+RunEstimate estimate_run(const Params& params, const RunPlan& plan);
+
+/// The peak memory of the same run at another resolution, by the same extrapolation.
+RunEstimate estimate_at(const Params& params, const RunPlan& plan, const RunEstimate& base,
+                        int resolution);
+
+/// The largest resolution whose estimated peak fits in `bytes` (0 when none does).
+int largest_fitting_resolution(const Params& params, const RunPlan& plan, const RunEstimate& base,
+                               std::size_t bytes);
+
+/// Refuses the run before it starts: TooLarge when the estimated peak exceeds the effective
+/// limit (the message gives the estimate, the limit and the largest resolution that fits);
+/// InvalidInput when an output format cannot hold the mesh (GLB's 4 GiB, 32-bit indices),
+/// naming a format that can.
+void check_run(const Params& params, const RunPlan& plan, const RunEstimate& estimate,
+               const MemoryLimits& limits);
+
+}  // namespace qjulia

@@ -1,0 +1,105 @@
+#pragma once
+// The processes of a distributed run, as the stages see them: a rank, a size, and a few
+// collective operations on byte buffers. The library holds no transport; qjulia-mpi implements
+// this with MPI. A run of one process has no Comm at all.
+#include <cstdint>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+namespace qjulia::detail {
+
+class Comm {
+ public:
+  virtual ~Comm() = default;
+  virtual int rank() const = 0;
+  virtual int size() const = 0;
+  /// Every rank sends to[r] to rank r and receives from[r] from each (all-to-all). Collective.
+  virtual std::vector<std::string> exchange(const std::vector<std::string>& to) = 0;
+  /// Every rank's `mine`, by rank. Collective.
+  virtual std::vector<std::string> allgather(const std::string& mine) = 0;
+  /// The sum over the ranks. Collective.
+  virtual std::uint64_t sum(std::uint64_t mine) = 0;
+  /// The ranks before this one, summed (0 on rank 0). Collective.
+  virtual std::uint64_t exclusive_sum(std::uint64_t mine) = 0;
+  /// True when any rank's `mine` is. Collective.
+  virtual bool any(bool mine) = 0;
+  /// Rank 0's `data` on every rank. Collective.
+  virtual void broadcast(std::string& data) = 0;
+
+  /// Bytes this rank has sent to other ranks.
+  std::uint64_t bytes_sent = 0;
+};
+
+/// Appends plain values to a byte buffer.
+class Packer {
+ public:
+  template <class T>
+  void put(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    const char* p = reinterpret_cast<const char*>(&v);
+    data.append(p, sizeof(T));
+  }
+  template <class T>
+  void put_vector(const std::vector<T>& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    put<std::uint64_t>(v.size());
+    data.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+  }
+  void put_bytes(const void* p, std::size_t n) { data.append(static_cast<const char*>(p), n); }
+  std::string data;
+};
+
+/// Reads what a Packer wrote, in the same order.
+class Unpacker {
+ public:
+  explicit Unpacker(const std::string& data) : data_(data) {}
+  template <class T>
+  T get() {
+    static_assert(std::is_trivially_copyable_v<T>);
+    T v;
+    take(&v, sizeof(T));
+    return v;
+  }
+  template <class T>
+  std::vector<T> get_vector() {
+    const auto n = get<std::uint64_t>();
+    if (n > (data_.size() - at_) / sizeof(T)) throw std::runtime_error("comm: truncated message");
+    std::vector<T> v(n);
+    take(v.data(), n * sizeof(T));
+    return v;
+  }
+  void get_bytes(void* p, std::size_t n) { take(p, n); }
+  bool done() const { return at_ == data_.size(); }
+
+ private:
+  void take(void* p, std::size_t n) {
+    if (n > data_.size() - at_) throw std::runtime_error("comm: truncated message");
+    std::memcpy(p, data_.data() + at_, n);
+    at_ += n;
+  }
+  const std::string& data_;
+  std::size_t at_ = 0;
+};
+
+/// How the bricks are dealt to the ranks: rank r owns the bricks whose x coordinate is in
+/// [first[r], first[r + 1]) (contiguous slabs in the bricks' key order, so the mesh of the
+/// ranks in rank order is the mesh of one process), chosen by the sampler from the estimated
+/// cost of each plane of bricks.
+struct Distribution {
+  Comm* comm = nullptr;
+  std::vector<int> first;  ///< size() + 1 entries once set
+  int rank_of(int bx) const {
+    int r = 0;
+    while (r + 1 < static_cast<int>(first.size()) - 1 && bx >= first[r + 1]) ++r;
+    return r;
+  }
+  bool owns(int bx) const {
+    const int r = comm->rank();
+    return bx >= first[r] && bx < first[r + 1];
+  }
+};
+
+}  // namespace qjulia::detail

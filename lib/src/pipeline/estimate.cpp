@@ -1,0 +1,219 @@
+#include "qjulia/pipeline/estimate.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "qjulia/base/error.h"
+#include "qjulia/field/classify.h"
+#include "qjulia/grid/sample.h"
+
+namespace qjulia {
+namespace {
+
+// The memory model, measured on the Release build (docs/design.md, "Memory"): the process
+// itself, bytes per crossing cell of the sparse run written as PLY (sampling, extraction and
+// the written mesh, which peak at different times), the faces and bricks per crossing cell,
+// and what the other stages and formats add.
+constexpr double kProcess = 64.0 * (1 << 20);
+constexpr double kPerCell = 80;
+constexpr double kFacesPerCell = 2.1;
+constexpr double kBrickBytes = 2600;       // a brick with its values, sampling and extraction
+constexpr double kDenseBrickBytes = 3600;  // a brick of the dense path (all 729 values)
+constexpr double kVdbBrickBytes = 2400;    // a VDB leaf with its values and masks
+constexpr double kDecimatePerFace = 70;    // the simplifier's copies and the Hausdorff tree
+constexpr double kThickenPerFace = 120;    // the level set of the thickened solid
+constexpr double kPreviewBytes = 64.0 * (1 << 20);
+constexpr double kGltfPerFace = 30;     // tinygltf's buffers beside the mesh
+constexpr double kThreeMfPerFace = 60;  // lib3mf's mesh and the archive in memory
+
+// GLB's length fields are 32 bits.
+constexpr double kGlbLimit = 4294967295.0;
+
+struct Probe {
+  std::uint64_t cells = 0, bricks = 0;
+};
+
+Probe probe(const Params& params, int resolution, const CancelToken* cancel) {
+  Params p = params;
+  p.resolution = resolution;
+  const Solid solid(p);
+  SampleOptions so;
+  so.cancel = cancel;
+  const SampledGrid grid = sample(solid, so);
+  return {grid.crossing_cells(), grid.bricks()};
+}
+
+// The bytes of the largest file `format` makes of the mesh.
+double file_bytes(MeshFormat format, double faces, double vertices, bool colour) {
+  switch (format) {
+    case MeshFormat::kGlb:
+    case MeshFormat::kGltf:
+      return vertices * (colour ? 36 : 24) + faces * 12 + 65536;
+    case MeshFormat::kPly:
+      return vertices * (colour ? 27 : 24) + faces * 13 + 65536;
+    case MeshFormat::kStl:
+      return faces * 50 + 84;
+    case MeshFormat::kObj:
+      return vertices * (colour ? 100 : 64) + faces * 32;
+    case MeshFormat::k3mf:
+      return vertices * 20 + faces * 16;
+  }
+  return 0;
+}
+
+std::string rounded(double x) {
+  char buf[32];
+  if (x >= 1e9)
+    std::snprintf(buf, sizeof buf, "%.1f billion", x / 1e9);
+  else if (x >= 1e6)
+    std::snprintf(buf, sizeof buf, "%.1f million", x / 1e6);
+  else
+    std::snprintf(buf, sizeof buf, "%.0f", x);
+  return buf;
+}
+
+}  // namespace
+
+RunEstimate estimate_at(const Params& params, const RunPlan& plan, const RunEstimate& base,
+                        int resolution) {
+  RunEstimate e = base;
+  e.resolution = resolution;
+  const double ratio = static_cast<double>(resolution) / std::max(1, base.probe_resolution);
+  const double cells = base.probe_resolution == resolution
+                           ? static_cast<double>(base.probe_cells)
+                           : static_cast<double>(base.probe_cells) * std::pow(ratio, base.exponent);
+  const double faces = kFacesPerCell * cells;
+  const double vertices = 0.5 * faces;
+  double final_faces = faces;
+  if (params.mesh.faces)
+    final_faces = std::min(final_faces, static_cast<double>(*params.mesh.faces));
+  const double final_vertices = 0.5 * final_faces;
+  const bool colour = params.mesh.color != ColorMode::kNone;
+
+  double peak = kProcess + kPerCell * cells;
+  if (colour) peak += 24 * vertices;  // the colours, and their copy for the file
+  // The bricks grow as the crossing cells do.
+  const double bricks =
+      base.probe_cells ? static_cast<double>(base.probe_bricks) * cells / base.probe_cells : 0.0;
+  if (plan.dense) {
+    const double side = std::ceil(resolution / 8.0) + 1;
+    peak += side * side * side * kDenseBrickBytes;
+  }
+  if (plan.keep_grid) peak += bricks * (kBrickBytes + kVdbBrickBytes);
+  if (params.mesh.faces || params.mesh.max_error) peak += kDecimatePerFace * faces;
+  if (params.print.min_thickness_mm) peak += kThickenPerFace * faces;
+  if (plan.preview) peak += kPreviewBytes;
+  double largest = 0;
+  for (MeshFormat f : plan.outputs) {
+    if (f == MeshFormat::kGlb || f == MeshFormat::kGltf) peak += kGltfPerFace * final_faces;
+    if (f == MeshFormat::k3mf) peak += kThreeMfPerFace * final_faces;
+    largest = std::max(largest, file_bytes(f, final_faces, final_vertices, colour));
+  }
+  auto clamp = [](double x) {
+    return x >= 1.8e19 ? std::numeric_limits<std::uint64_t>::max() : static_cast<std::uint64_t>(x);
+  };
+  e.cells = clamp(cells);
+  e.faces = clamp(faces);
+  e.vertices = clamp(vertices);
+  e.final_faces = clamp(final_faces);
+  e.peak_bytes = clamp(peak);
+  e.largest_output = clamp(largest);
+  return e;
+}
+
+RunEstimate estimate_run(const Params& params, const RunPlan& plan) {
+  const int n = params.resolution;
+  RunEstimate e;
+  if (n <= 64) {
+    // Small enough to sample itself (a few milliseconds).
+    const Probe p = probe(params, n, plan.cancel);
+    e.probe_resolution = n;
+    e.probe_cells = p.cells;
+    e.probe_bricks = p.bricks;
+    e.exponent = 2;
+  } else {
+    // Two samplings at a quarter and an eighth of the run (at most 256 and 128): the crossing
+    // cells grow as a power of the resolution (2 for a smooth surface, more for a fractal).
+    const int fine = std::min(256, n / 4), coarse = fine / 2;
+    const std::uint64_t a = probe(params, coarse, plan.cancel).cells;
+    const Probe p = probe(params, fine, plan.cancel);
+    const std::uint64_t b = p.cells;
+    e.probe_resolution = fine;
+    e.probe_cells = b;
+    e.probe_bricks = p.bricks;
+    e.exponent = (a > 0 && b > 0) ? std::clamp(std::log2(double(b) / double(a)), 1.5, 3.0) : 2.0;
+    // A surface the probes barely see (a few cells) may be finer than they resolve: at least
+    // the cells of a sphere filling the box.
+    if (b < 64) {
+      e.probe_cells = std::max<std::uint64_t>(b, 64);
+      e.probe_bricks = std::max<std::uint64_t>(e.probe_bricks, 1);
+      e.exponent = 3.0;
+    }
+  }
+  return estimate_at(params, plan, e, n);
+}
+
+int largest_fitting_resolution(const Params& params, const RunPlan& plan, const RunEstimate& base,
+                               std::size_t bytes) {
+  auto fits = [&](int r) { return estimate_at(params, plan, base, r).peak_bytes <= bytes; };
+  if (!fits(1)) return 0;
+  int lo = 1, hi = 2;
+  while (hi < 1000000 && fits(hi)) {
+    lo = hi;
+    hi = std::min(1000000, hi * 2);
+  }
+  if (fits(hi)) return hi;
+  while (hi - lo > 1) {
+    const int mid = lo + (hi - lo) / 2;
+    (fits(mid) ? lo : hi) = mid;
+  }
+  return lo;
+}
+
+void check_run(const Params& params, const RunPlan& plan, const RunEstimate& e,
+               const MemoryLimits& limits) {
+  const std::size_t limit = limits.effective();
+  if (e.peak_bytes > limit) {
+    // The probes of another resolution differ (a quarter of it): the answer is checked by the
+    // estimate of a run at that resolution itself, and lowered until that one fits too.
+    int fits = largest_fitting_resolution(params, plan, e, limit);
+    for (int round = 0; round < 4 && fits > 0; ++round) {
+      Params q = params;
+      q.resolution = fits;
+      const RunEstimate own = estimate_run(q, plan);
+      if (own.peak_bytes <= limit) break;
+      fits = std::min(fits - 1, largest_fitting_resolution(q, plan, own, limit));
+    }
+    throw TooLarge("resolution " + std::to_string(params.resolution) + " needs about " +
+                   format_bytes(static_cast<double>(e.peak_bytes)) + " (estimated, " +
+                   rounded(static_cast<double>(e.faces)) + " faces) but " + limits.describe() +
+                   " is available; " +
+                   (fits > 0 ? "the largest resolution that fits is " + std::to_string(fits)
+                             : std::string("no resolution fits")) +
+                   " (--max-memory sets the limit)");
+  }
+  // The vertices of a TriMesh are numbered in 32 bits; PLY's indices are signed.
+  const double vertices = static_cast<double>(e.vertices);
+  if (vertices > 4294967295.0)
+    throw TooLarge("the mesh would have about " + rounded(vertices) +
+                   " vertices, more than 32-bit indices can number; lower the resolution");
+  for (MeshFormat f : plan.outputs) {
+    const double final_vertices = 0.5 * static_cast<double>(e.final_faces);
+    if (f == MeshFormat::kPly && final_vertices > 2147483647.0)
+      throw TooLarge("the mesh would have about " + rounded(final_vertices) +
+                     " vertices, more than PLY's signed 32-bit indices hold; write .obj or "
+                     ".stl, or reduce it with --faces");
+    if (f == MeshFormat::kGlb) {
+      const double bytes = file_bytes(f, static_cast<double>(e.final_faces), final_vertices,
+                                      params.mesh.color != ColorMode::kNone);
+      if (bytes > kGlbLimit)
+        throw TooLarge("the mesh would make a GLB of about " + format_bytes(bytes) + " (" +
+                       rounded(static_cast<double>(e.final_faces)) +
+                       " faces, estimated); GLB holds at most 4 GiB: write .gltf (its buffer "
+                       "is a separate .bin), .ply, .obj or .stl, or reduce it with --faces");
+    }
+  }
+}
+
+}  // namespace qjulia

@@ -1,0 +1,136 @@
+// The estimate of a run against what runs take: the peak memory of `qjulia mesh` (a process of
+// its own each) within 1.5x of the estimate from 256 to 1024; refusals before the work.
+#include "qjulia/pipeline/estimate.h"
+
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+
+#include "qjulia/base/error.h"
+#include "qjulia/field/params.h"
+
+namespace qjulia {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct MeshRun {
+  int code = -1;
+  std::string err;
+  nlohmann::json stats;
+};
+
+// `qjulia mesh ARGS -o x.ply --stats s.json` in a directory of its own.
+MeshRun mesh(const std::string& args) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("qjulia_estimate_test_" + std::to_string(::getpid()) + "_" +
+                                   std::to_string(std::hash<std::string>()(args)));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string cmd = "cd '" + dir.string() + "' && '" QJULIA_CLI "' mesh " + args +
+                          " --quiet -o x.ply --stats s.json 2> err.txt > /dev/null";
+  MeshRun r;
+  const int status = std::system(cmd.c_str());
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  std::ifstream err(dir / "err.txt");
+  std::ostringstream s;
+  s << err.rdbuf();
+  r.err = s.str();
+  if (fs::exists(dir / "s.json")) r.stats = nlohmann::json::parse(std::ifstream(dir / "s.json"));
+  fs::remove_all(dir);
+  return r;
+}
+
+void expect_estimate_within_1_5x(const std::string& preset, int resolution) {
+  SCOPED_TRACE(preset + " at " + std::to_string(resolution));
+  const MeshRun r = mesh("--preset " + preset + " --resolution " + std::to_string(resolution));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const double estimate = r.stats["estimate"]["peak_bytes"].get<double>();
+  const double peak = r.stats["peak_rss_bytes"].get<double>();
+  ASSERT_GT(peak, 0);
+  EXPECT_LE(estimate, 1.5 * peak) << "estimate " << estimate / 1048576 << " MiB, peak "
+                                  << peak / 1048576 << " MiB";
+  EXPECT_GE(estimate, peak / 1.5) << "estimate " << estimate / 1048576 << " MiB, peak "
+                                  << peak / 1048576 << " MiB";
+  // The faces too, which the format limits go by.
+  const double faces = r.stats["estimate"]["faces"].get<double>();
+  const double actual = r.stats["faces"].get<double>();
+  EXPECT_LE(faces, 1.5 * actual);
+  EXPECT_GE(faces, actual / 1.5);
+}
+
+TEST(Estimate, PeakMemoryWithinOneAndAHalfTimesAt256And512) {
+  for (const char* preset : {"newton-cubic", "classic-julia", "rosa-rational", "sine-julia"})
+    for (int resolution : {256, 512}) expect_estimate_within_1_5x(preset, resolution);
+}
+
+TEST(Estimate, PeakMemoryWithinOneAndAHalfTimesAt1024) {
+  expect_estimate_within_1_5x("classic-julia", 1024);
+  expect_estimate_within_1_5x("newton-cubic", 1024);
+}
+
+TEST(Estimate, RefusesWhatDoesNotFitWithTheLargestResolutionThatDoes) {
+  const MeshRun r = mesh("--resolution 2048 --max-memory 1G");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("1.00 GiB (--max-memory)"), std::string::npos) << r.err;
+  const auto at = r.err.find("the largest resolution that fits is ");
+  ASSERT_NE(at, std::string::npos) << r.err;
+  const int fits = std::stoi(r.err.substr(at + 36));
+  EXPECT_GT(fits, 256);
+  EXPECT_LT(fits, 2048);
+  // That resolution is accepted under the same limit, and one well above it is not.
+  const MeshRun ok = mesh("--resolution " + std::to_string(fits) + " --max-memory 1G");
+  EXPECT_EQ(ok.code, 0) << ok.err;
+  EXPECT_LE(ok.stats["peak_rss_bytes"].get<double>(), 1.5 * 1073741824.0);
+  const MeshRun over = mesh("--resolution " + std::to_string(fits * 5 / 4) + " --max-memory 1G");
+  EXPECT_EQ(over.code, 2) << over.err;
+}
+
+TEST(Estimate, RefusesAGlbBeyondFourGibibytesBeforeTheWork) {
+  Params p = preset("newton-cubic");
+  p.resolution = 4096;
+  RunPlan plan;
+  plan.outputs = {MeshFormat::kGlb};
+  const RunEstimate e = estimate_run(p, plan);
+  EXPECT_GT(e.faces, 200000000u);
+  MemoryLimits unlimited;
+  try {
+    check_run(p, plan, e, unlimited);
+    ADD_FAILURE() << "a GLB of " << e.largest_output << " bytes was accepted";
+  } catch (const TooLarge& error) {
+    const std::string what = error.what();
+    EXPECT_NE(what.find("GLB holds at most 4 GiB"), std::string::npos) << what;
+    EXPECT_NE(what.find(".ply"), std::string::npos) << what;
+  }
+  // The same mesh as PLY, or decimated to a million faces as GLB, is accepted.
+  plan.outputs = {MeshFormat::kPly};
+  EXPECT_NO_THROW(check_run(p, plan, e, unlimited));
+  p.mesh.faces = 1000000;
+  plan.outputs = {MeshFormat::kGlb};
+  EXPECT_NO_THROW(check_run(p, plan, estimate_run(p, plan), unlimited));
+}
+
+TEST(Estimate, ScalesWithTheResolution) {
+  // A sphere's crossing cells grow as the square of the resolution.
+  Params p = preset("unit-ball");
+  p.resolution = 512;
+  const RunEstimate e = estimate_run(p, RunPlan{});
+  EXPECT_NEAR(e.exponent, 2.0, 0.1);
+  const RunEstimate twice = estimate_at(p, RunPlan{}, e, 1024);
+  EXPECT_NEAR(double(twice.cells) / double(e.cells), 4.0, 0.5);
+  // The largest resolution that fits a budget has an estimate within it, and the next does not.
+  const std::size_t budget = std::size_t(1) << 30;
+  const int fits = largest_fitting_resolution(p, RunPlan{}, e, budget);
+  EXPECT_LE(estimate_at(p, RunPlan{}, e, fits).peak_bytes, budget);
+  EXPECT_GT(estimate_at(p, RunPlan{}, e, fits + 1).peak_bytes, budget);
+}
+
+}  // namespace
+}  // namespace qjulia

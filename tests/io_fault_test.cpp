@@ -1,0 +1,302 @@
+// File-system faults and outputs that point elsewhere: a full disk, a file-size limit, a
+// read-only directory, outputs that are directories, devices, FIFOs or one of the inputs; in
+// the library (AtomicFile, write_mesh) and end to end through the CLI. The tests run as root
+// and mount small tmpfs file systems; when mounting fails they fail.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+
+#include <cmath>
+#include <cstring>
+
+#include "io_fixtures.h"
+#include "qjulia/base/atomic_file.h"
+#include "qjulia/base/error.h"
+#include "qjulia/io/mesh_io.h"
+#include "test_meshes.h"
+
+namespace {
+
+using io_fixtures::qjulia;
+using io_fixtures::quote;
+using io_fixtures::read_bytes;
+using io_fixtures::TempDir;
+using io_fixtures::Tmpfs;
+using io_fixtures::write_bytes;
+using qjulia::InvalidInput;
+namespace fs = std::filesystem;
+
+const std::vector<std::string> kExtensions = {".glb", ".gltf", ".obj", ".ply", ".stl", ".3mf"};
+
+bool has(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+// ------------------------------------------------------------------------ AtomicFile
+
+TEST(AtomicFile, NeverReplacesADirectoryADeviceOrAFifo) {
+  TempDir dir;
+  fs::create_directory(dir.file("out.ply"));
+  ASSERT_EQ(::mkfifo(dir.file("fifo.ply").c_str(), 0644), 0);
+  fs::create_symlink("/dev/null", dir.file("null.ply"));
+  const std::vector<std::string> names = dir.names();
+  for (const std::string& path : {dir.file("out.ply"), dir.file("fifo.ply"), dir.file("null.ply"),
+                                  std::string("/dev/null")}) {
+    try {
+      qjulia::AtomicFile f(path);
+      ADD_FAILURE() << "created " << path;
+    } catch (const InvalidInput& e) {
+      EXPECT_EQ(std::string(e.what()).rfind(path + ": exists and is a ", 0), 0u) << e.what();
+      EXPECT_TRUE(has(e.what(), "never replaces")) << e.what();
+    }
+    if (path != "/dev/null") {
+      EXPECT_THROW(qjulia::write_mesh(path, fixtures::icosphere(1)), InvalidInput);
+    }
+  }
+  EXPECT_EQ(dir.names(), names);  // nothing replaced, no temporary file
+  EXPECT_TRUE(fs::is_directory(dir.file("out.ply")));
+  EXPECT_TRUE(fs::is_fifo(dir.file("fifo.ply")));
+  EXPECT_TRUE(fs::is_character_file("/dev/null"));
+}
+
+TEST(AtomicFile, TemporaryNamesAreExclusiveAndALinkToAFileIsReplacedNotFollowed) {
+  TempDir dir;
+  const std::string target = write_bytes(dir.file("target.txt"), "old");
+  fs::create_symlink(target, dir.file("link.txt"));
+  qjulia::AtomicFile a(dir.file("link.txt")), b(dir.file("link.txt"));
+  EXPECT_NE(a.temp_path(), b.temp_path());
+  a.write("a");
+  b.write("b");
+  a.commit();
+  b.commit();
+  EXPECT_EQ(read_bytes(dir.file("link.txt")), "b");
+  EXPECT_FALSE(fs::is_symlink(dir.file("link.txt")));
+  EXPECT_EQ(read_bytes(target), "old");
+  EXPECT_EQ(dir.names(), (std::vector<std::string>{"link.txt", "target.txt"}));
+}
+
+TEST(AtomicFile, AFullDiskIsARuntimeErrorAndLeavesNoTemporaryFile) {
+  Tmpfs disk("64k");
+  ASSERT_TRUE(disk.mounted());
+  const qjulia::TriMesh mesh = fixtures::icosphere(5);  // 20480 faces: over 250 kB in any format
+  for (const auto& ext : kExtensions) {
+    const std::string path = disk.file("m" + ext);
+    try {
+      qjulia::write_mesh(path, mesh);
+      ADD_FAILURE() << "written: " << path;
+    } catch (const InvalidInput& e) {
+      ADD_FAILURE() << "a full disk is not bad input: " << e.what();
+    } catch (const std::runtime_error& e) {
+      // A .gltf writes its .bin first: the message names the file that did not fit.
+      const std::string named = ext == ".gltf" ? disk.file("m.bin") : path;
+      EXPECT_EQ(std::string(e.what()), named + ": write failed (No space left on device)");
+    }
+    EXPECT_TRUE(disk.dir().names().empty()) << ext << ": " << disk.dir().names().front();
+  }
+}
+
+TEST(AtomicFile, AFileSizeLimitIsARuntimeErrorAndLeavesNoTemporaryFile) {
+  TempDir dir;
+  const qjulia::TriMesh mesh = fixtures::icosphere(4);
+  for (const auto& ext : kExtensions) {
+    const std::string path = dir.file("m" + ext);
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      // In the child: RLIMIT_FSIZE of 10 kB; SIGXFSZ ignored, so write() fails with EFBIG.
+      ::signal(SIGXFSZ, SIG_IGN);
+      const rlimit limit{10000, 10000};
+      ::setrlimit(RLIMIT_FSIZE, &limit);
+      int code = 3;
+      try {
+        qjulia::write_mesh(path, mesh);
+        code = 4;
+      } catch (const InvalidInput&) {
+        code = 5;
+      } catch (const std::runtime_error& e) {
+        const std::string named = ext == ".gltf" ? dir.file("m.bin") : path;
+        code = std::string(e.what()) == named + ": write failed (File too large)" ? 0 : 6;
+      }
+      ::_exit(code);
+    }
+    int status = 0;
+    ASSERT_EQ(::waitpid(child, &status, 0), child);
+    ASSERT_TRUE(WIFEXITED(status)) << ext;
+    EXPECT_EQ(WEXITSTATUS(status), 0) << ext << " (3 other, 4 written, 5 InvalidInput, 6 message)";
+    EXPECT_TRUE(dir.names().empty()) << ext << ": " << dir.names().front();
+  }
+}
+
+TEST(AtomicFile, AReadOnlyDirectoryIsBadInputAndItsFilesStayAsTheyWere) {
+  Tmpfs ro("1m");
+  ASSERT_TRUE(ro.mounted());
+  const std::string old = write_bytes(ro.file("old.ply"), "old bytes");
+  ASSERT_TRUE(ro.remount_read_only());
+  for (const std::string& path : {ro.file("new.glb"), ro.file("old.ply")}) {
+    try {
+      qjulia::write_mesh(path, fixtures::icosphere(1));
+      ADD_FAILURE() << "written: " << path;
+    } catch (const InvalidInput& e) {
+      EXPECT_EQ(std::string(e.what()).rfind(path + ": ", 0), 0u) << e.what();
+      EXPECT_TRUE(has(e.what(), "Read-only file system")) << e.what();
+    }
+  }
+  EXPECT_EQ(read_bytes(old), "old bytes");
+  EXPECT_EQ(ro.dir().names(), std::vector<std::string>{"old.ply"});
+}
+
+TEST(AtomicFile, AMissingDirectoryIsBadInput) {
+  TempDir dir;
+  EXPECT_THROW(qjulia::AtomicFile(dir.file("no/such/dir/x")), InvalidInput);
+  EXPECT_THROW(qjulia::check_output_path(""), InvalidInput);
+  write_bytes(dir.file("file"), "x");
+  EXPECT_THROW(qjulia::AtomicFile(dir.file("file/x")), InvalidInput);  // a file as a folder
+}
+
+// ------------------------------------------------------------------------ the CLI
+
+/// A small mesh file made by the CLI's writer.
+std::string sphere_file(const TempDir& dir, const std::string& name) {
+  const std::string path = dir.file(name);
+  qjulia::write_mesh(path, fixtures::icosphere(2));
+  return path;
+}
+
+void expect_exit(const io_fixtures::Run& r, int code, const std::string& names) {
+  EXPECT_EQ(r.code, code) << r.out;
+  EXPECT_TRUE(has(r.out, names)) << "the message does not name " << names << ":\n" << r.out;
+}
+
+TEST(CliFiles, AnOutputThatIsAnInputExitsTwoAndTheInputStaysAsItWas) {
+  TempDir dir;
+  const std::string a = sphere_file(dir, "a.ply");
+  const std::string b = sphere_file(dir, "b.glb");
+  const std::string a_bytes = read_bytes(a);
+  fs::create_symlink(a, dir.file("link.ply"));
+  fs::create_hard_link(a, dir.file("hard.ply"));
+  for (const std::string& out : {a, dir.file("link.ply"), dir.file("hard.ply")}) {
+    expect_exit(qjulia("compare " + quote(a) + " " + quote(b) + " --quiet --colored " + quote(out)),
+                2, out + ": is also an input");
+  }
+  expect_exit(qjulia("compare " + quote(a) + " " + quote(b) + " --quiet --json " + quote(b)), 2,
+              b + ": is also an input");
+  // render -o onto a mesh input (through a link named .png) and onto a .png input.
+  fs::create_symlink(a, dir.file("a_as.png"));
+  expect_exit(qjulia("render " + quote(a) + " -o " + quote(dir.file("a_as.png"))), 2,
+              dir.file("a_as.png") + ": is also an input");
+  ASSERT_EQ(qjulia("render " + quote(a) + " -o " + quote(dir.file("cell.png"))).code, 0);
+  const std::string cell = read_bytes(dir.file("cell.png"));
+  expect_exit(qjulia("render " + quote(dir.file("cell.png")) + " " + quote(b) + " -o " +
+                     quote(dir.file("cell.png"))),
+              2, dir.file("cell.png") + ": is also an input");
+  // mesh: --stats onto the parameter file, two outputs on one file.
+  const std::string params = write_bytes(dir.file("p.json"), R"({"resolution": 16})");
+  expect_exit(qjulia("mesh " + quote(params) + " --quiet -o " + quote(dir.file("m.glb")) +
+                     " --stats " + quote(params)),
+              2, params + ": is also an input");
+  expect_exit(qjulia("mesh --resolution 16 --quiet -o " + quote(dir.file("m.stl")) + " --stats " +
+                     quote(dir.file("m.stl.json"))),
+              2, dir.file("m.stl.json") + ": named twice");
+  EXPECT_EQ(read_bytes(a), a_bytes);
+  EXPECT_EQ(read_bytes(dir.file("cell.png")), cell);
+  EXPECT_EQ(read_bytes(params), R"({"resolution": 16})");
+  EXPECT_EQ(dir.names(), (std::vector<std::string>{"a.ply", "a_as.png", "b.glb", "cell.png",
+                                                   "hard.ply", "link.ply", "p.json"}));
+}
+
+TEST(CliFiles, AnOutputThatIsADirectoryADeviceOrAFifoExitsTwoBeforeAnyWork) {
+  TempDir dir;
+  fs::create_directory(dir.file("dir.glb"));
+  ASSERT_EQ(::mkfifo(dir.file("fifo.ply").c_str(), 0644), 0);
+  fs::create_symlink("/dev/null", dir.file("null.stl"));
+  for (const std::string name : {"dir.glb", "fifo.ply", "null.stl"}) {
+    // A resolution that would take minutes: the refusal must come first.
+    const io_fixtures::Run r = qjulia("mesh --resolution 2000 --quiet -o " + quote(dir.file(name)));
+    expect_exit(r, 2, dir.file(name) + ": exists and is a");
+  }
+  const std::string a = sphere_file(dir, "a.ply");
+  fs::create_symlink("/dev/null", dir.file("null.png"));
+  expect_exit(qjulia("render " + quote(a) + " -o " + quote(dir.file("null.png"))), 2,
+              dir.file("null.png") + ": exists and is a character device");
+  EXPECT_TRUE(fs::is_directory(dir.file("dir.glb")));
+  EXPECT_TRUE(fs::is_fifo(dir.file("fifo.ply")));
+  EXPECT_EQ(dir.names().size(), 5u);
+}
+
+TEST(CliFiles, AReadOnlyDirectoryExitsTwoNamingThePath) {
+  Tmpfs ro("1m");
+  ASSERT_TRUE(ro.mounted());
+  ASSERT_TRUE(ro.remount_read_only());
+  const std::string out = ro.file("m.glb");
+  expect_exit(qjulia("mesh --resolution 2000 --quiet -o " + quote(out)), 2,
+              out + ": cannot write in the directory");
+  TempDir dir;
+  const std::string a = sphere_file(dir, "a.ply");
+  expect_exit(qjulia("render " + quote(a) + " -o " + quote(ro.file("x.png"))), 2, ro.file("x.png"));
+  EXPECT_TRUE(ro.dir().names().empty());
+}
+
+TEST(CliFiles, AFullDiskExitsOneNamingThePathAndLeavesNothing) {
+  Tmpfs disk("64k");
+  ASSERT_TRUE(disk.mounted());
+  const std::string out = disk.file("m.ply");
+  expect_exit(qjulia("mesh --resolution 48 --quiet -o " + quote(out)), 1,
+              out + ": write failed (No space left on device)");
+  EXPECT_TRUE(disk.dir().names().empty());
+  // A file-size limit: the shell ignores SIGXFSZ, so write() fails with EFBIG.
+  TempDir dir;
+  const std::string big = dir.file("m.obj");
+  expect_exit(io_fixtures::shell("trap '' XFSZ; ulimit -f 16; exec " + std::string(QJULIA_CLI) +
+                                 " mesh --resolution 48 --quiet -o " + quote(big)),
+              1, big + ": write failed (File too large)");
+  EXPECT_TRUE(dir.names().empty());
+}
+
+TEST(CliFiles, ABadMeshFileGetsTheSameVerdictFromEveryCommand) {
+  TempDir dir;
+  const std::string good = sphere_file(dir, "good.glb");
+  const std::string bad = write_bytes(
+      dir.file("bad.ply"),
+      "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+      "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+      "0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n");
+  const std::string verdict = bad + ": vertex 1 has a non-finite position";
+  expect_exit(qjulia("compare " + quote(bad) + " " + quote(good) + " --quiet"), 2, verdict);
+  expect_exit(qjulia("compare " + quote(good) + " " + quote(bad) + " --quiet"), 2, verdict);
+  expect_exit(qjulia("render " + quote(bad) + " -o " + quote(dir.file("x.png"))), 2, verdict);
+  EXPECT_FALSE(fs::exists(dir.file("x.png")));
+}
+
+TEST(CliFiles, AnInputThatWouldNotFitInMemoryExitsTwoBeforeItIsAllocated) {
+#if defined(__SANITIZE_ADDRESS__)
+  // AddressSanitizer reserves terabytes of address space: no process of a sanitizer build can
+  // run under an address-space limit (the library's refusal is tested by io_test).
+  GTEST_SKIP() << "an address-space limit cannot be set under AddressSanitizer";
+#endif
+  // 30 polygons of a million one-byte indices: a 30 MB file whose triangles take 360 MB, read
+  // under a 400 MB address-space limit (the CLI itself needs some 200 MB of it).
+  TempDir dir;
+  std::string ply =
+      "ply\nformat binary_little_endian 1.0\nelement vertex 256\nproperty uchar x\n"
+      "property uchar y\nproperty uchar z\nelement face 30\n"
+      "property list uint uchar vertex_indices\nend_header\n";
+  for (int v = 0; v < 256; ++v) ply += std::string{char(v), char(v / 16), char(v % 7)};
+  std::string face(4 + 1000000, '\0');
+  const uint32_t n = 1000000;
+  std::memcpy(&face[0], &n, 4);
+  for (uint32_t k = 0; k < n; ++k) face[4 + k] = char(k % 251);
+  for (int f = 0; f < 30; ++f) ply += face;
+  const std::string big = write_bytes(dir.file("big.ply"), ply);
+  const std::string good = sphere_file(dir, "good.glb");
+  const std::string limit = "ulimit -v 400000; exec " + std::string(QJULIA_CLI);
+  const std::string verdict = big + ": reading it needs at least ";
+  expect_exit(io_fixtures::shell(limit + " compare " + quote(big) + " " + quote(good) + " --quiet"),
+              2, verdict);
+  expect_exit(
+      io_fixtures::shell(limit + " render " + quote(big) + " -o " + quote(dir.file("x.png"))), 2,
+      verdict);
+  EXPECT_FALSE(fs::exists(dir.file("x.png")));
+}
+
+}  // namespace

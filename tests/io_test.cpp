@@ -1,0 +1,470 @@
+// The door of the library: validate_mesh and the readers' policy, counts checked before
+// anything is allocated, memory limits, glTF buffer URIs, 3MF decompression, reading from
+// memory, cancellation of the writers, and the fuzzers' regression inputs.
+#include <gtest/gtest.h>
+#include <sys/stat.h>
+#include <zip.h>
+
+#include <cmath>
+#include <cstring>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "io_fixtures.h"
+#include "qjulia/base/error.h"
+#include "qjulia/base/validate.h"
+#include "qjulia/io/mesh_io.h"
+#include "qjulia/mesh/clean.h"
+#include "qjulia/mesh/compare.h"
+#include "qjulia/mesh/decimate.h"
+#include "qjulia/mesh/print.h"
+#include "qjulia/render/render.h"
+#include "test_meshes.h"
+
+namespace {
+
+using io_fixtures::read_bytes;
+using io_fixtures::TempDir;
+using io_fixtures::write_bytes;
+using qjulia::InvalidInput;
+using qjulia::MeshFormat;
+using qjulia::TriMesh;
+namespace fs = std::filesystem;
+
+const std::vector<std::string> kExtensions = {".glb", ".gltf", ".obj", ".ply", ".stl", ".3mf"};
+
+/// The message of the InvalidInput `f` throws ("" and a test failure when it throws none).
+template <class F>
+std::string refusal(F&& f) {
+  try {
+    f();
+  } catch (const InvalidInput& e) {
+    return e.what();
+  }
+  ADD_FAILURE() << "no InvalidInput";
+  return "";
+}
+
+bool has(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+TriMesh tetrahedron() {
+  TriMesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  m.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  return m;
+}
+
+const char* kPlyHead =
+    "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+    "property float z\nelement face 3\nproperty list uchar int vertex_indices\nend_header\n";
+
+// ------------------------------------------------------------------------ validate_mesh
+
+TEST(Validate, AcceptsDegenerateFacesUnreferencedVerticesAndUnusableNormals) {
+  TriMesh m = tetrahedron();
+  m.positions.push_back({5, 5, 5});      // unreferenced
+  m.triangles.push_back({0, 0, 1});      // repeated index
+  m.normals.assign(5, {NAN, 0, 0});      // replaced by the writers and the renderer
+  m.colors.assign(5, {2.0f, -1.0f, 0});  // clamped by them
+  EXPECT_NO_THROW(qjulia::validate_mesh(m, "m", {true}));
+  EXPECT_NO_THROW(qjulia::validate_mesh(TriMesh{}, "empty"));
+}
+
+TEST(Validate, NamesTheSourceAndTheFirstBadTriangleOrVertex) {
+  TriMesh m = tetrahedron();
+  m.triangles[2][1] = 9;
+  m.triangles[3][0] = 12;
+  EXPECT_EQ(refusal([&] { qjulia::validate_mesh(m, "src"); }),
+            "src: triangle 2 has vertex index 9 but the mesh has 4 vertices");
+  m = tetrahedron();
+  m.positions[2][1] = INFINITY;
+  m.positions[3][0] = NAN;
+  EXPECT_EQ(refusal([&] { qjulia::validate_mesh(m, "src"); }),
+            "src: vertex 2 has a non-finite position");
+  m = tetrahedron();
+  m.normals.resize(3);
+  EXPECT_TRUE(has(refusal([&] { qjulia::validate_mesh(m, "src"); }),
+                  "src: the mesh has 3 normals for 4 vertices"));
+  m = tetrahedron();
+  m.colors.resize(5);
+  EXPECT_TRUE(has(refusal([&] { qjulia::validate_mesh(m, "src"); }),
+                  "src: the mesh has 5 colours for 4 vertices"));
+  EXPECT_EQ(refusal([&] { qjulia::validate_mesh(TriMesh{}, "src", {true}); }),
+            "src: the mesh has no triangles");
+}
+
+TEST(Validate, EveryFunctionThatTakesAMeshGivesTheSameVerdict) {
+  TriMesh nan = fixtures::icosphere(1);
+  nan.positions[2][0] = NAN;
+  TriMesh bad_index = fixtures::icosphere(1);
+  bad_index.triangles[1][2] = 1000;
+  TempDir dir;
+  const TriMesh good = fixtures::icosphere(1);
+  qjulia::DecimateOptions dec;
+  dec.faces = 20;
+  qjulia::ThickenOptions thick;
+  thick.min_thickness = 0.1;
+  for (const TriMesh* m : {&nan, &bad_index}) {
+    const std::string expected = m == &nan ? "vertex 2 has a non-finite position"
+                                           : "triangle 1 has vertex index 1000 but the mesh has";
+    const std::vector<std::pair<std::string, std::function<void()>>> calls = {
+        {"clean", [&] { qjulia::clean(*m); }},
+        {"decimate", [&] { qjulia::decimate(*m, dec); }},
+        {"compare", [&] { qjulia::compare(*m, good); }},
+        {"compare", [&] { qjulia::compare(good, *m); }},
+        {"render", [&] { qjulia::render(*m); }},
+        {"printability", [&] { qjulia::printability(*m); }},
+        {"thicken", [&] { qjulia::thicken(*m, thick); }},
+        {dir.file("m.ply"), [&] { qjulia::write_mesh(dir.file("m.ply"), *m); }}};
+    for (const auto& [name, call] : calls) {
+      const std::string msg = refusal(call);
+      EXPECT_EQ(msg.rfind(name, 0), 0u) << msg;
+      EXPECT_TRUE(has(msg, expected)) << msg;
+    }
+  }
+}
+
+// ------------------------------------------------------------------------ readers' policy
+
+TEST(Readers, DropTrianglesWithARepeatedIndexKeepUnreferencedVerticesAndReportBoth) {
+  TempDir dir;
+  const std::string ply =
+      write_bytes(dir.file("m.ply"), std::string(kPlyHead) +
+                                         "0 0 0\n1 0 0\n"
+                                         "0 1 0\n7 7 7\n3 0 1 1\n3 0 1 2\n3 2 2 2\n");
+  qjulia::ReadReport report;
+  qjulia::ReadOptions opts;
+  opts.report = &report;
+  const TriMesh m = qjulia::read_mesh(ply, opts);
+  EXPECT_EQ(m.positions.size(), 4u);
+  ASSERT_EQ(m.triangles.size(), 1u);
+  EXPECT_EQ(m.triangles[0], (std::array<uint32_t, 3>{0, 1, 2}));
+  EXPECT_EQ(report.dropped_faces, 2u);
+  EXPECT_EQ(report.unreferenced_vertices, 1u);
+
+  // OBJ, and STL whose welded corners coincide: the same policy.
+  const std::string obj = write_bytes(dir.file("m.obj"),
+                                      "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 3 3 3\n"
+                                      "f 1 2 2\nf 1 2 3\n");
+  EXPECT_EQ(qjulia::read_mesh(obj, opts).triangles.size(), 1u);
+  EXPECT_EQ(report.dropped_faces, 1u);
+  EXPECT_EQ(report.unreferenced_vertices, 1u);
+  const std::string stl = write_bytes(
+      dir.file("m.stl"),
+      "solid s\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n"
+      "endloop\nendfacet\nfacet normal 0 0 0\nouter loop\nvertex 0 0 0\nvertex 0 0 0\n"
+      "vertex 1 0 0\nendloop\nendfacet\nendsolid s\n");
+  EXPECT_EQ(qjulia::read_mesh(stl, opts).triangles.size(), 1u);
+  EXPECT_EQ(report.dropped_faces, 1u);
+
+  const std::string none = write_bytes(dir.file("none.ply"), std::string(kPlyHead) +
+                                                                 "0 0 0\n1 0 0\n0 1 0\n7 7 7\n"
+                                                                 "3 0 1 1\n3 0 0 1\n3 2 2 2\n");
+  EXPECT_EQ(refusal([&] { qjulia::read_mesh(none); }),
+            none + ": every triangle has a repeated vertex index (no area)");
+}
+
+/// Writes the tetrahedron in `ext` with the position of vertex 0 (the first corner in STL)
+/// made NaN in the file's bytes.
+std::string nan_file(const TempDir& dir, const std::string& ext) {
+  const std::string path = dir.file("nan" + ext);
+  qjulia::write_mesh(path, tetrahedron());
+  const float nan = NAN;
+  auto patch = [&](const std::string& file, std::size_t offset) {
+    std::string b = read_bytes(file);
+    std::memcpy(&b[offset], &nan, 4);
+    write_bytes(file, b);
+  };
+  if (ext == ".ply") {
+    patch(path, read_bytes(path).find("end_header\n") + 11);
+  } else if (ext == ".stl") {
+    patch(path, 84 + 12);
+  } else if (ext == ".glb") {
+    uint32_t json = 0;
+    std::memcpy(&json, read_bytes(path).data() + 12, 4);
+    patch(path, 20 + json + 8 + 4 * 12);  // after the 4 triangles
+  } else if (ext == ".gltf") {
+    patch(dir.file("nan.bin"), 4 * 12);
+  } else if (ext == ".obj") {
+    std::string b = read_bytes(path);
+    const auto v = b.find("\nv ") + 3;
+    b.replace(v, b.find(' ', v) - v, "nan");
+    write_bytes(path, b);
+  }
+  return path;
+}
+
+TEST(Readers, ANonFinitePositionGetsTheSameVerdictInEveryFormat) {
+  TempDir dir;
+  for (const std::string ext : {".glb", ".gltf", ".obj", ".ply", ".stl"}) {
+    const std::string path = nan_file(dir, ext);
+    const std::string msg = refusal([&] { qjulia::read_mesh(path); });
+    EXPECT_EQ(msg, path + ": vertex 0 has a non-finite position") << ext;
+  }
+}
+
+TEST(Readers, CountsAreCheckedAgainstTheFileSizeBeforeAnythingIsAllocated) {
+  TempDir dir;
+  // 4e9 vertices announced in a 200-byte file: refused at once, not allocated (a 1 MiB
+  // limit would make any allocation of them TooLarge instead).
+  qjulia::ReadOptions small;
+  small.max_memory = std::size_t(1) << 20;
+  for (const std::string format : {"ascii", "binary_little_endian", "binary_big_endian"}) {
+    const std::string path =
+        write_bytes(dir.file(format + ".ply"),
+                    "ply\nformat " + format +
+                        " 1.0\nelement vertex 4000000000\nproperty float x\nproperty float y\n"
+                        "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+                        "end_header\n" +
+                        std::string(64, '0'));
+    try {
+      qjulia::read_mesh(path, small);
+      ADD_FAILURE() << "read";
+    } catch (const qjulia::TooLarge& e) {
+      ADD_FAILURE() << "allocation was attempted: " << e.what();
+    } catch (const InvalidInput& e) {
+      EXPECT_TRUE(has(e.what(), "announces 4000000000 records")) << e.what();
+    }
+  }
+  // A binary STL whose count does not match its size; a GLB accessor counting past its buffer.
+  std::string stl(80, ' ');
+  const uint32_t count = 100000000;
+  stl.append(reinterpret_cast<const char*>(&count), 4);
+  stl += std::string(50, '\0');
+  const std::string stl_path = write_bytes(dir.file("count.stl"), stl);
+  EXPECT_TRUE(has(refusal([&] { qjulia::read_mesh(stl_path, small); }), "100000000 triangles"));
+  const std::string glb = dir.file("count.glb");
+  qjulia::write_mesh(glb, tetrahedron());
+  std::string b = read_bytes(glb);
+  const std::string key = "\"count\":4";  // the positions' accessor
+  ASSERT_NE(b.find(key), std::string::npos);
+  b.replace(b.find(key), key.size(), "\"count\":9");
+  write_bytes(glb, b);
+  EXPECT_TRUE(has(refusal([&] { qjulia::read_mesh(glb, small); }), "reaches past the end"));
+}
+
+TEST(Readers, AMeshThatWouldNotFitTheMemoryLimitIsTooLarge) {
+  TempDir dir;
+  // 200000 vertices of three bytes each: a 600 kB file whose positions take 2.4 MB.
+  const std::size_t n = 200000;
+  std::string ply = "ply\nformat binary_little_endian 1.0\nelement vertex " + std::to_string(n) +
+                    "\nproperty uchar x\nproperty uchar y\nproperty uchar z\nelement face 1\n"
+                    "property list uchar int vertex_indices\nend_header\n";
+  for (std::size_t v = 0; v < n; ++v) ply += std::string{char(v), char(v >> 8), char(v >> 16)};
+  ply += '\3';
+  for (int32_t i : {0, 1, 2}) ply.append(reinterpret_cast<const char*>(&i), 4);
+  const std::string path = write_bytes(dir.file("big.ply"), ply);
+  qjulia::ReadOptions opts;
+  opts.max_memory = std::size_t(2) << 20;
+  try {
+    qjulia::read_mesh(path, opts);
+    ADD_FAILURE() << "read";
+  } catch (const qjulia::TooLarge& e) {
+    const std::string msg = e.what();
+    EXPECT_EQ(msg.rfind(path + ": reading it needs at least ", 0), 0u) << msg;
+    EXPECT_TRUE(has(msg, "(vertices)")) << msg;
+    EXPECT_TRUE(has(msg, "2.00 MiB")) << msg;
+  }
+  opts.max_memory = std::size_t(8) << 20;
+  EXPECT_EQ(qjulia::read_mesh(path, opts).positions.size(), n);
+}
+
+TEST(Readers, OnlyRegularFilesAreReadAndAFifoDoesNotBlock) {
+  TempDir dir;
+  ASSERT_EQ(::mkfifo(dir.file("fifo.ply").c_str(), 0644), 0);
+  EXPECT_EQ(refusal([&] { qjulia::read_mesh(dir.file("fifo.ply")); }),
+            dir.file("fifo.ply") + ": cannot read the file (not a regular file)");
+  fs::create_symlink("/dev/zero", dir.file("zero.stl"));
+  EXPECT_TRUE(has(refusal([&] { qjulia::read_mesh(dir.file("zero.stl")); }), "not a regular file"));
+  fs::create_directory(dir.file("dir.obj"));
+  EXPECT_TRUE(has(refusal([&] { qjulia::read_mesh(dir.file("dir.obj")); }), "not a regular file"));
+}
+
+TEST(Readers, FromMemoryTheyGiveWhatTheyGiveFromAFile) {
+  TempDir dir;
+  TriMesh mesh = fixtures::icosphere(2);
+  for (const auto& ext : kExtensions) {
+    const std::string path = dir.file("m" + ext);
+    qjulia::write_mesh(path, mesh);
+    if (ext == ".gltf") continue;  // its buffer is a file: from memory only data: URIs
+    const TriMesh a = qjulia::read_mesh(path);
+    qjulia::ReadOptions opts;
+    opts.name = "bytes" + ext;
+    const TriMesh b =
+        qjulia::read_mesh_from_memory(read_bytes(path), qjulia::format_from_path(path), opts);
+    EXPECT_EQ(a.positions, b.positions) << ext;
+    EXPECT_EQ(a.triangles, b.triangles) << ext;
+    EXPECT_EQ(a.normals, b.normals) << ext;
+    EXPECT_EQ(refusal([&] {
+                qjulia::read_mesh_from_memory("garbage", qjulia::format_from_path(path), opts);
+              }).rfind("bytes" + ext + ": ", 0),
+              0u);
+  }
+  const std::string gltf = read_bytes(dir.file("m.gltf"));
+  const std::string msg = refusal([&] { qjulia::read_mesh_from_memory(gltf, MeshFormat::kGltf); });
+  EXPECT_TRUE(has(msg,
+                  "<memory>: refused: URI 'm.bin' names a file, but the glTF was read "
+                  "from memory"))
+      << msg;
+}
+
+// ------------------------------------------------------------------------ glTF buffer URIs
+
+/// A .gltf in `dir` whose buffer URI is `uri` (the buffer itself written as m.bin beside it).
+std::string gltf_with_uri(const TempDir& dir, const std::string& uri) {
+  const std::string path = dir.file("m.gltf");
+  qjulia::write_mesh(path, tetrahedron());
+  auto doc = nlohmann::json::parse(read_bytes(path));
+  doc["buffers"][0]["uri"] = uri;
+  write_bytes(path, doc.dump());
+  return path;
+}
+
+TEST(Gltf, BufferUrisMayOnlyNameRegularFilesInsideTheFolder) {
+  TempDir outside;
+  TempDir dir;
+  const std::string bin_bytes =
+      read_bytes(fs::path(gltf_with_uri(dir, "m.bin")).replace_extension(".bin"));
+  write_bytes(outside.file("m.bin"), bin_bytes);
+  fs::create_directory(dir.file("sub"));
+  write_bytes(dir.file("sub/b.bin"), bin_bytes);
+  fs::create_symlink(outside.file("m.bin"), dir.file("out.bin"));
+  fs::create_symlink(dir.file("m.bin"), dir.file("in.bin"));
+  ASSERT_EQ(::mkfifo(dir.file("fifo.bin").c_str(), 0644), 0);
+  fs::create_symlink("/dev/zero", dir.file("zero.bin"));
+
+  // Read: the file beside it, in a subfolder, through a link that stays inside, percent-encoded.
+  for (const std::string uri : {"m.bin", "sub/b.bin", "in.bin", "%6D.bin"})
+    EXPECT_EQ(qjulia::read_mesh(gltf_with_uri(dir, uri)).triangles.size(), 4u) << uri;
+  // Refused, each naming the URI and why.
+  const std::vector<std::pair<std::string, std::string>> refused = {
+      {"../" + outside.path().filename().string() + "/m.bin", "leaves the folder"},
+      {"%2E%2E/" + outside.path().filename().string() + "/m.bin", "leaves the folder"},
+      {outside.file("m.bin"), "is an absolute path"},
+      {"/dev/zero", "is an absolute path"},
+      {"out.bin", "is a link leading out of the folder"},
+      {"fifo.bin", "is not a regular file"},
+      {"zero.bin", "is a link leading out of the folder"},
+      {"sub", "is not a regular file"},
+      {"file:///etc/passwd", "is a URI with a scheme"},
+      {"missing.bin", "does not exist"}};
+  for (const auto& [uri, why] : refused) {
+    const std::string path = gltf_with_uri(dir, uri);
+    const std::string msg = refusal([&] { qjulia::read_mesh(path); });
+    EXPECT_EQ(msg.rfind(path + ": refused: URI '", 0), 0u) << msg;
+    EXPECT_TRUE(has(msg, why)) << uri << ": " << msg;
+  }
+}
+
+TEST(Gltf, AGlbWhoseBinChunkClaimsItsOwnHeaderIsRefused) {
+  // tinygltf 2.7 accepts this chunk and reads 8 bytes past the end of the file.
+  const std::string glb =
+      read_bytes(std::string(QJULIA_SOURCE_DIR) + "/tests/fuzz/corpus/glb/bin_chunk_past_end.glb");
+  ASSERT_FALSE(glb.empty());
+  EXPECT_EQ(refusal([&] { qjulia::read_mesh_from_memory(glb, MeshFormat::kGlb); }),
+            "<memory>: the GLB is truncated (its BIN chunk reaches past the end)");
+}
+
+// ------------------------------------------------------------------------ 3MF
+
+/// The 3MF writer's file with its model entry replaced by `model` (deflated by libzip).
+std::string threemf_with_model(const TempDir& dir, const std::string& model) {
+  const std::string path = dir.file("m.3mf");
+  qjulia::write_mesh(path, tetrahedron());
+  int err = 0;
+  zip_t* z = zip_open(path.c_str(), 0, &err);
+  EXPECT_NE(z, nullptr);
+  zip_source_t* src = zip_source_buffer(z, model.data(), model.size(), 0);
+  const zip_int64_t i = zip_name_locate(z, "3D/3dmodel.model", 0);
+  EXPECT_GE(i, 0);
+  EXPECT_EQ(zip_file_replace(z, zip_uint64_t(i), src, 0), 0);
+  zip_set_file_compression(z, zip_uint64_t(i), ZIP_CM_DEFLATE, 9);
+  EXPECT_EQ(zip_close(z), 0);
+  return path;
+}
+
+/// Overwrites the uncompressed size of every entry in the zip's local and central headers
+/// with `size` (what a zip bomb does to look small).
+void understate_sizes(const std::string& path, uint32_t size) {
+  std::string b = read_bytes(path);
+  for (const std::string& sig : {std::string("PK\3\4"), std::string("PK\1\2")}) {
+    const std::size_t field = sig[2] == 3 ? 22 : 24;
+    for (std::size_t p = b.find(sig); p != std::string::npos; p = b.find(sig, p + 4))
+      std::memcpy(&b[p + field], &size, 4);
+  }
+  write_bytes(path, b);
+}
+
+TEST(ThreeMf, DecompressingToMoreThanAHundredTimesTheFileIsRefusedEvenWhenHeadersUnderstateIt) {
+  TempDir dir;
+  const std::string head =
+      R"(<?xml version="1.0" encoding="UTF-8"?><model unit="millimeter" xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02"><resources><object id="1" type="model"><mesh><vertices>)";
+  const std::string tail =
+      R"(<vertex x="0" y="0" z="0"/><vertex x="1" y="0" z="0"/><vertex x="0" y="1" z="0"/></vertices><triangles><triangle v1="0" v2="1" v3="2"/></triangles></mesh></object></resources><build><item objectid="1"/></build></model>)";
+  // Readable: the same model with some padding.
+  EXPECT_EQ(qjulia::read_mesh(threemf_with_model(dir, head + std::string(1000, ' ') + tail))
+                .triangles.size(),
+            1u);
+  // 30 MB of blanks compress to some 30 kB.
+  const std::string bomb = threemf_with_model(dir, head + std::string(30 << 20, ' ') + tail);
+  EXPECT_LT(fs::file_size(bomb), 100000u);
+  const std::string msg = refusal([&] { qjulia::read_mesh(bomb); });
+  EXPECT_EQ(msg.rfind(bomb + ": refused: the archive decompresses to more than ", 0), 0u) << msg;
+  EXPECT_TRUE(has(msg, "100 times its size")) << msg;
+  understate_sizes(bomb, 1000);
+  EXPECT_TRUE(has(refusal([&] { qjulia::read_mesh(bomb); }), "refused: the archive"));
+}
+
+// ------------------------------------------------------------------------ writers
+
+TEST(Writers, StopBetweenBlocksWhenTheTokenIsSetAndLeaveNoFile) {
+  // The progress callback sets the token after write_mesh has begun: the writer itself must
+  // notice it (between the blocks it writes), not the entry check.
+  const TriMesh mesh = fixtures::icosphere(3);
+  for (const auto& ext : kExtensions) {
+    TempDir dir;
+    qjulia::CancelToken token;
+    qjulia::ExportOptions opts;
+    opts.progress = [&](double f) {
+      if (f == 0.0) token.request();
+      return true;
+    };
+    opts.cancel = &token;
+    EXPECT_THROW(qjulia::write_mesh(dir.file("m" + ext), mesh, opts), qjulia::Cancelled) << ext;
+    EXPECT_TRUE(dir.names().empty()) << ext << ": " << dir.names().front();
+  }
+}
+
+// ------------------------------------------------------------------------ fuzz regressions
+
+TEST(FuzzRegressions, EveryInputThatOnceFailedIsReadOrRefusedCleanly) {
+  // Inputs the fuzzers found (tests/fuzz/regressions/TARGET/), read as their target reads them.
+  const fs::path root = fs::path(QJULIA_SOURCE_DIR) / "tests/fuzz/regressions";
+  const std::vector<std::pair<std::string, MeshFormat>> targets = {
+      {"ply_ascii", MeshFormat::kPly},
+      {"ply_binary_le", MeshFormat::kPly},
+      {"ply_binary_be", MeshFormat::kPly},
+      {"obj", MeshFormat::kObj},
+      {"stl_ascii", MeshFormat::kStl},
+      {"stl_binary", MeshFormat::kStl},
+      {"gltf", MeshFormat::kGltf},
+      {"glb", MeshFormat::kGlb},
+      {"3mf", MeshFormat::k3mf}};
+  std::size_t inputs = 0;
+  for (const auto& [target, format] : targets) {
+    if (!fs::is_directory(root / target)) continue;
+    for (const auto& e : fs::directory_iterator(root / target)) {
+      ++inputs;
+      try {
+        const TriMesh m = qjulia::read_mesh_from_memory(read_bytes(e.path()), format);
+        EXPECT_NO_THROW(qjulia::validate_mesh(m, e.path().string(), {true}));
+      } catch (const InvalidInput&) {
+      }
+    }
+  }
+  std::cout << inputs << " regression inputs\n";
+}
+
+}  // namespace
