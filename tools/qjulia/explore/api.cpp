@@ -170,6 +170,7 @@ std::shared_ptr<const PreviewMesh> Api::preview_mesh(const Params& params,
   PipelineOptions popts;
   popts.cancel = &cancel;
   popts.max_memory = options_.preview_memory;
+  popts.outputs = {MeshFormat::kGlb};
   const auto begin = Clock::now();
   PipelineResult result = run_pipeline(params, popts);
   if (result.mesh.triangles.empty()) throw InvalidInput(source + ": " + kEmptySolidMessage);

@@ -21,15 +21,16 @@ using Clock = std::chrono::steady_clock;
 
 // The usual share of each stage in a run's time, for one progress bar over all of them; a stage
 // not listed (a new one) counts as nothing.
-constexpr std::array<std::pair<const char*, double>, 9> kStageWeights{{{"sample", 4},
-                                                                       {"extract", 3},
-                                                                       {"clean", 0.5},
-                                                                       {"scale", 0.1},
-                                                                       {"thicken", 2},
-                                                                       {"decimate", 2},
-                                                                       {"check", 1},
-                                                                       {"measure", 0.3},
-                                                                       {"write", 1}}};
+constexpr std::array<std::pair<const char*, double>, 10> kStageWeights{{{"estimate", 0.3},
+                                                                        {"sample", 4},
+                                                                        {"extract", 3},
+                                                                        {"clean", 0.5},
+                                                                        {"scale", 0.1},
+                                                                        {"thicken", 2},
+                                                                        {"decimate", 2},
+                                                                        {"check", 1},
+                                                                        {"measure", 0.3},
+                                                                        {"write", 1}}};
 
 double stage_weight(const std::string& stage) {
   for (const auto& [name, weight] : kStageWeights)
@@ -39,8 +40,8 @@ double stage_weight(const std::string& stage) {
 
 // The stages a run of `params` goes through, by weight.
 double total_weight(const Params& params) {
-  double total = stage_weight("sample") + stage_weight("extract") + stage_weight("clean") +
-                 stage_weight("measure") + stage_weight("write");
+  double total = stage_weight("estimate") + stage_weight("sample") + stage_weight("extract") +
+                 stage_weight("clean") + stage_weight("measure") + stage_weight("write");
   if (params.print.size_mm) total += stage_weight("scale");
   if (params.print.min_thickness_mm) total += stage_weight("thicken");
   if (params.mesh.faces || params.mesh.max_error) total += stage_weight("decimate");
@@ -161,6 +162,7 @@ void ExportJobs::run(const std::shared_ptr<Job>& job, const Params& params) {
     popts.cancel = &job->cancel;
     popts.max_memory = max_memory_;
     popts.progress = report;
+    popts.outputs = {job->format};  // a mesh too large for the format is refused before the work
     PipelineResult result = run_pipeline(params, popts);
     if (result.mesh.triangles.empty()) throw InvalidInput(kEmptySolidMessage);
     faces = result.mesh.triangles.size();

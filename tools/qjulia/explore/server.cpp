@@ -102,6 +102,12 @@ void serve(const ServerOptions& options, const CancelToken& cancel,
   // One request per connection: a refused request's unread body can never be taken for the
   // next request, and no idle connection holds a worker.
   server.set_keep_alive_max_count(1);
+  // SO_REUSEADDR only: httplib's default also sets SO_REUSEPORT, which would let a second
+  // server share the port of a running one (and take half of its connections).
+  server.set_socket_options([](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof(yes));
+  });
   server.set_payload_max_length(options.api.max_body);  // a longer body: 413, skipped unread
   server.set_default_headers({{"X-Content-Type-Options", "nosniff"},
                               {"X-Frame-Options", "DENY"},
