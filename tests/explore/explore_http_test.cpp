@@ -510,6 +510,38 @@ TEST(ExploreListen, ListenAddsItsAddressToTheServersNames) {
             403);
 }
 
+// --max-memory is the budget of all jobs together: a quarter for the preview lane, the rest for
+// the export; a job whose estimated peak does not fit is refused before it starts (estimate.h).
+TEST(ExploreMemory, AJobAboveTheBudgetIsRefusedBeforeTheWork) {
+  ExploreServer server({"--max-memory", "360M"});
+  const json info = json::parse(server.get("/api/info").body);
+  EXPECT_EQ(info["preview_memory_bytes"], 90u << 20);
+  EXPECT_EQ(info["export_memory_bytes"], 270u << 20);
+  EXPECT_EQ(server.post("/api/mesh", params_text(newton(48))).status, 200);
+  const HttpResponse big = server.post("/api/mesh", params_text(newton(160)));
+  EXPECT_EQ(big.status, 400) << big.body;
+  const json refusal = json::parse(big.body);
+  EXPECT_EQ(refusal["too_large"], true);
+  EXPECT_NE(refusal["error"].get<std::string>().find("needs about"), std::string::npos)
+      << refusal.dump();
+  // An export far above the budget fails at once, with the largest resolution that fits.
+  const auto begin = std::chrono::steady_clock::now();
+  const json request = {{"params", json::parse(params_text(newton(100000)))}, {"format", "glb"}};
+  const HttpResponse started = server.post("/api/export", request.dump());
+  ASSERT_EQ(started.status, 202) << started.body;
+  const std::string id = std::to_string(json::parse(started.body)["id"].get<std::uint64_t>());
+  json s;
+  do {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    s = json::parse(server.get("/api/export/" + id).body);
+  } while (s["state"] == "running" &&
+           std::chrono::steady_clock::now() - begin < std::chrono::seconds(60));
+  EXPECT_EQ(s["state"], "failed") << s.dump();
+  EXPECT_NE(s["error"].get<std::string>().find("the largest resolution that fits is"),
+            std::string::npos)
+      << s.dump();
+}
+
 // SIGINT and SIGTERM end the server like every command: exit 130 / 143, a running preview
 // cancelled, its directory removed.
 class ExploreSignals : public ::testing::TestWithParam<int> {};
