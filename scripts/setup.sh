@@ -7,10 +7,23 @@ packages=(cmake g++ make ccache pkg-config
   libopenvdb-dev libboost-iostreams-dev libtbb-dev libopenmesh-dev libcgal-dev
   libtinygltf-dev libstb-dev nlohmann-json3-dev libgtest-dev lib3mf-dev libzip-dev
   libmeshoptimizer-dev libpng-dev libhwy-dev clang-16 libfuzzer-16-dev
-  pybind11-dev python3-pybind11 python3-dev python3-numpy python3-pytest blender xvfb xauth)
+  pybind11-dev python3-pybind11 python3-dev python3-numpy python3-pytest blender xvfb xauth
+  libcpp-httplib-dev chromium)
+# Node.js and npm (qjulia explore's page and its browser test): a Node.js already on PATH, e.g.
+# one from outside Debian, is used with its own npm; otherwise Debian's.
+if ! command -v node >/dev/null 2>&1; then
+  packages+=(nodejs npm)
+elif ! command -v npm >/dev/null 2>&1; then
+  if dpkg-query -S "$(readlink -f "$(command -v node)")" 2>/dev/null | grep -q '^nodejs:' &&
+    ! dpkg-query -W -f='${Version}' nodejs | grep -q nodesource; then
+    packages+=(npm)
+  else
+    echo "setup: $(command -v node) is not Debian's Node.js and has no npm beside it" >&2
+    exit 1
+  fi
+fi
 if [[ "${1:-}" == "--validate" ]]; then
   packages+=(python3-numpy python3-scipy python3-openvdb)
-  command -v node >/dev/null 2>&1 || packages+=(nodejs npm)
 fi
 
 missing=()
@@ -25,3 +38,8 @@ if ((${#missing[@]})); then
   DEBIAN_FRONTEND=noninteractive "${sudo_cmd[@]}" apt-get install -y -qq --no-install-recommends \
     "${missing[@]}" >&2
 fi
+
+# The page's npm packages (web/package-lock.json: three.js; puppeteer-core and the glTF
+# validator for the tests) into web/node_modules, once: later builds need no network.
+cmake -DNPM="$(command -v npm)" -DWEB_DIR="$(cd "$(dirname "$0")/.." && pwd)/web" \
+  -P "$(dirname "$0")/../web/npm_ci.cmake"

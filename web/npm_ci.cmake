@@ -1,7 +1,8 @@
 # Installs the page's npm packages (web/package-lock.json) into web/node_modules when they are
 # missing or the lock file changed, then copies the files the page serves into OUT_DIR.
-# No network is needed when web/node_modules is already up to date.
-#   cmake -DNPM=npm -DWEB_DIR=web -DOUT_DIR=dir -DFILES="three/build/three.module.js|..." -P npm_ci.cmake
+# No network is needed when web/node_modules is already up to date. scripts/setup.sh runs it
+# without OUT_DIR (only the npm ci), so that the build itself needs no network.
+#   cmake -DNPM=npm -DWEB_DIR=web [-DOUT_DIR=dir -DFILES="three/build/three.module.js|..."] -P npm_ci.cmake
 string(REPLACE "|" ";" FILES "${FILES}")
 set(_modules ${WEB_DIR}/node_modules)
 set(_stamp ${_modules}/.qjulia-package-lock.json)  # the lock file node_modules was installed from
@@ -36,6 +37,9 @@ if(NOT _fresh)
   configure_file(${WEB_DIR}/package-lock.json ${_stamp} COPYONLY)
 endif()
 
+if(NOT OUT_DIR)
+  return()
+endif()
 foreach(_f IN LISTS FILES)
   get_filename_component(_dir ${OUT_DIR}/${_f} DIRECTORY)
   file(MAKE_DIRECTORY ${_dir})

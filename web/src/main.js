@@ -153,6 +153,9 @@ async function runCycle(generation, resolution, signal) {
       figures = r.figures;
       setStatus(figuresText(figures));
     }
+    // On screen: the frame that draws the new mesh has been presented.
+    await new Promise((resolve) => requestAnimationFrame(() => resolve()));
+    if (!current()) return false;
     const latencyMs = performance.now() - editTime;
     const first = !explore.shown || explore.shown.generation !== generation;
     explore.shown = { generation, resolution, latencyMs, figures, sideBySide: panel.sideBySide() };
@@ -317,6 +320,15 @@ function wire() {
     if (exportId !== null) api.cancelExport(exportId).catch(() => {});
   });
   $('save-png').addEventListener('click', async () => downloadBlob(await viewer.png(), `${name}.png`));
+  $('copy-png').addEventListener('click', async () => {
+    // The page is served from 127.0.0.1 or localhost, a secure context, so the clipboard is there.
+    try {
+      await navigator.clipboard.write([new ClipboardItem({ 'image/png': viewer.png() })]);
+      setStatus('the picture is on the clipboard');
+    } catch (e) {
+      setStatus(`cannot copy the picture: ${e.message}`, true);
+    }
+  });
   $('save').addEventListener('click', () => {
     const text = `${JSON.stringify(panel.params(), null, 2)}\n`;
     downloadBlob(new Blob([text], { type: 'application/json' }), `${name}.json`);
