@@ -289,6 +289,12 @@ async function main() {
 
 main().then(() => {
   console.log(failures ? `${failures} check(s) failed` : 'all checks passed');
+  // The downloads stay for a look only when a check failed.
+  if (!failures) {
+    for (const d of fs.readdirSync(args.out)) {
+      if (d.startsWith('downloads-')) fs.rmSync(path.join(args.out, d), { recursive: true, force: true });
+    }
+  }
   process.exit(failures ? 1 : 0);
 }, (e) => {
   console.error(`browser_test: ${e.stack || e}`);
