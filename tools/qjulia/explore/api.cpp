@@ -2,8 +2,6 @@
 
 #include <atomic>
 #include <chrono>
-#include <fstream>
-#include <iterator>
 #include <nlohmann/json.hpp>
 #include <regex>
 
@@ -64,12 +62,6 @@ void add_position(json& j, const std::string& message) {
   }
   j["line"] = std::stoi(m[1].str());
   j["column"] = std::stoi(m[2].str());
-}
-
-std::string read_file(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error("cannot read " + path.string());
-  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
 json mesh_figures(const PreviewMesh& m, const Params& p, bool cached) {

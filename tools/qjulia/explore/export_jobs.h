@@ -80,6 +80,10 @@ class ExportJobs {
   bool shut_down_ = false;
 };
 
+/// The bytes of the file at `path` (one of the server's own). @throws std::runtime_error when
+/// it cannot be read.
+std::string read_file(const std::filesystem::path& path);
+
 /// Rewrites the .gltf at `path` with its external buffers embedded as base64 data URIs and
 /// removes the buffer files, so the file stands alone (a browser download is one file).
 /// @throws std::runtime_error when a file cannot be read or written.
