@@ -161,6 +161,62 @@ async function main() {
     await page.click('#reset-region');
     await waitShown(detail);
 
+    // The view's controls (QHD's rotation window, illumination model and lights) redraw at once.
+    let view = await snapshot();
+    for (const [selector, value] of [['#rot-0', 60], ['#shading', 'simple'], ['#intensity', 0.6],
+      ['#ambient', 1.5], ['#light-0', 4]]) {
+      if (selector === '#shading') await page.select(selector, value); else await setField(selector, value);
+      const next = await snapshot();
+      check(changed(view, next) > 0.01, `${selector} changes the view`, `${(changed(view, next) * 100).toFixed(1)}% of the pixels changed`);
+      view = next;
+    }
+    for (const [selector, value] of [['#rot-0', -25], ['#intensity', 2.5], ['#ambient', 0.35], ['#light-0', -1]]) {
+      await setField(selector, value);
+    }
+    await page.select('#shading', 'phong');
+
+    // The degree of the family, the clip plane and the choice of X-Y-Z are new parameter sets.
+    const edits = [
+      ['degree 4', async () => setField('#degree', 4), async () => (await page.$eval('#formula', (e) => e.value)) === '(3*h^4+1)/(4*h^3)'],
+      ['the clip plane', async () => page.click('#clip-on'), async () => true],
+      ['the fourth component p = 0.3', async () => setField('#fixed', 0.3), async () => true],
+    ];
+    for (const [what, edit, ok] of edits) {
+      const previous = await snapshot();
+      const faces = (await state()).shown.figures.faces;
+      await edit();
+      s = await waitShown(detail);
+      const next = await snapshot();
+      check(await ok() && s.shown.figures.faces !== faces && changed(previous, next) > 0.01, `${what} changes the preview`,
+        `${faces} -> ${s.shown.figures.faces} faces, ${(changed(previous, next) * 100).toFixed(1)}% of the pixels changed`);
+    }
+    await setField('#fixed', 0);
+    await page.click('#clip-on');
+    await setField('#degree', 3);
+    await waitShown(detail);
+
+    // Any three of the four components as X-Y-Z, on a map with non-real coefficients (one with
+    // real coefficients has the same section in every space through the real axis).
+    await page.select('#preset', 'pq-quadratic');
+    s = await waitShown(detail);
+    const rmn = await snapshot();
+    const rmnFaces = s.shown.figures.faces;
+    await page.select('#axis-2', 'p');
+    s = await waitShown(detail);
+    const rmp = await snapshot();
+    check(await page.$eval('#fixed-label', (e) => e.textContent) === 'n =' && s.shown.figures.faces !== rmnFaces &&
+      changed(rmn, rmp) > 0.01, 'X-Y-Z = r m p changes the preview',
+    `${rmnFaces} -> ${s.shown.figures.faces} faces, ${(changed(rmn, rmp) * 100).toFixed(1)}% of the pixels changed`);
+
+    // Mandelbrot: the start point h0 instead of the constant c.
+    await page.select('#preset', 'quaternion-mandelbrot');
+    s = await waitShown(detail);
+    check(await page.$eval('#start-row', (e) => !e.hidden) && (await page.$$('#const-c-0')).length === 0 &&
+      await page.$eval('input[name=mode][value=mandelbrot]', (e) => e.checked) && s.shown.figures.faces > 1000,
+    'Mandelbrot shows h0 instead of c and meshes', `${s.shown.figures.faces} faces`);
+    await page.select('#preset', 'newton-cubic');
+    await waitShown(detail);
+
     // A formula error appears under the formula, the caret at the parser's column.
     await setField('#formula', '(2*h^3+1)/(3*h^');
     await page.waitForFunction(() => !document.getElementById('formula-error').hidden, { timeout: 20000 });

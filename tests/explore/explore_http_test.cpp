@@ -244,6 +244,7 @@ TEST_F(ExploreApi, AnEmptySolidIs400) {
   const HttpResponse r = server().post("/api/mesh", params_text(p));
   EXPECT_EQ(r.status, 400);
   EXPECT_NE(r.body.find("the solid is empty"), std::string::npos);
+  EXPECT_EQ(json::parse(r.body)["empty"], true);
 }
 
 TEST_F(ExploreApi, ANewerPreviewCancelsTheRunningOne) {

@@ -83,8 +83,9 @@ function startCycle() {
   controller = new AbortController();
   const detail = panel.detail();
   const quick = Math.min(kQuickResolution, detail);
-  runCycle(generation, quick, controller.signal).then((shown) => {
-    if (!shown || generation !== explore.generation || quick >= detail) return;
+  runCycle(generation, quick, controller.signal).then((outcome) => {
+    // An empty solid at the quick resolution may have parts that a finer grid sees.
+    if (!outcome || generation !== explore.generation || quick >= detail) return;
     refineTimer = setTimeout(() => {
       if (generation !== explore.generation) return;
       controller = new AbortController();
@@ -93,7 +94,8 @@ function startCycle() {
   });
 }
 
-// One preview (or two and their comparison, side by side); true when it reached the screen.
+// One preview (or two and their comparison, side by side): 'shown' when it reached the screen,
+// 'empty' when the solid is empty, false otherwise (cancelled, an error).
 async function runCycle(generation, resolution, signal) {
   const current = () => generation === explore.generation && !signal.aborted;
   const params = panel.params();
@@ -160,11 +162,11 @@ async function runCycle(generation, resolution, signal) {
     const first = !explore.shown || explore.shown.generation !== generation;
     explore.shown = { generation, resolution, latencyMs, figures, sideBySide: panel.sideBySide() };
     if (first) explore.latencies.push({ generation, resolution, ms: latencyMs });
-    return true;
+    return 'shown';
   } catch (e) {
     if (e.name === 'AbortError' || (e instanceof ApiError && e.cancelled)) return false;
     if (current()) showError(e);
-    return false;
+    return e instanceof ApiError && e.body.empty === true ? 'empty' : false;
   } finally {
     if (generation === explore.generation) setBusy(false);
   }

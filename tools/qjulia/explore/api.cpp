@@ -309,6 +309,7 @@ Reply Api::guarded(const std::function<Reply()>& route) {
   } catch (const InvalidInput& e) {
     json j = {{"error", e.what()}};
     add_position(j, e.what());
+    if (std::string(e.what()).find(kEmptySolidMessage) != std::string::npos) j["empty"] = true;
     return json_reply(j, 400);
   } catch (const Cancelled&) {
     return error(503, "the server is shutting down");
