@@ -12,7 +12,7 @@
 #include <mutex>
 #include <unordered_map>
 
-#include "base/comm.h"
+#include "base/distribution.h"
 #include "qjulia/base/error.h"
 
 namespace qjulia::detail {
