@@ -3,13 +3,19 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <mutex>
+#include <sstream>
 
 #include "base/distribution.h"
 #include "grid/bricks.h"
 #include "grid/grid_impl.h"
 #include "qjulia/field/classify.h"
 #include "qjulia/grid/sample.h"
+#include "qjulia/io/mesh_io.h"
+#include "qjulia/pipeline/distributed.h"
+#include "qjulia/pipeline/pipeline.h"
 #include "qjulia/surface/extract.h"
 #include "surface/part.h"
 #include "thread_comm.h"
@@ -160,6 +166,126 @@ TEST(Distributed, ExtractionGivesTheMeshOfOneProcessForOneToFourRanks) {
       EXPECT_EQ(parts[0].stats.component_bbox, one_stats.component_bbox);
     }
   }
+}
+
+std::string file_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// The file one process writes, and the file K ranks write, for each K.
+void expect_same_files(const Params& p, const std::string& ext, bool expect_gathered,
+                       std::size_t* removed_components = nullptr) {
+  const std::string dir = testing::TempDir();
+  PipelineOptions po;
+  po.outputs = {format_from_path("x" + ext)};
+  ExportOptions eo;
+  eo.params_json = params_to_json(p);
+  const PipelineResult one = run_pipeline(p, po);
+  const std::string expected_path = dir + "one" + ext;
+  write_mesh(expected_path, one.mesh, eo);
+  const std::string expected = file_bytes(expected_path);
+  ASSERT_GT(expected.size(), 100u);
+  if (removed_components && one.stats.clean)
+    *removed_components += one.stats.clean->removed_components;
+  for (int ranks = 1; ranks <= 4; ++ranks) {
+    SCOPED_TRACE(std::to_string(ranks) + " ranks, " + ext);
+    const std::string path = dir + "dist" + std::to_string(ranks) + ext;
+    std::vector<RunStats> stats(ranks);
+    test::run_ranks(ranks, [&](Comm& comm) {
+      DistributedRun run = run_pipeline_distributed(p, po, comm);
+      EXPECT_EQ(run.gathered(), expect_gathered);
+      write_distributed(path, run, eo, comm);
+      stats[comm.rank()] = run.result.stats;
+    });
+    EXPECT_TRUE(file_bytes(path) == expected) << path << " differs from " << expected_path;
+    const RunStats& s = stats[0];
+    EXPECT_EQ(s.measure.faces, one.stats.measure.faces);
+    EXPECT_EQ(s.measure.volume, one.stats.measure.volume);
+    EXPECT_EQ(s.measure.components.size(), one.stats.measure.components.size());
+    EXPECT_EQ(s.evaluations, one.stats.evaluations);
+    EXPECT_EQ(s.refine_evaluations, one.stats.refine_evaluations);
+    ASSERT_EQ(s.ranks.size(), static_cast<std::size_t>(ranks));
+    std::uint64_t bricks = 0;
+    int busy = 0;
+    for (const auto& r : s.ranks) {
+      bricks += r.bricks;
+      busy += r.bricks > 0;
+    }
+    EXPECT_GT(bricks, 0u);
+    EXPECT_GE(busy, std::min(ranks, 2)) << "the bricks were not dealt to several ranks";
+    std::filesystem::remove(path);
+  }
+  std::filesystem::remove(expected_path);
+}
+
+TEST(Distributed, ThePipelineWritesTheFileOfOneProcessForOneToFourRanks) {
+  std::size_t removed = 0;
+  for (const auto& [name, resolution] : {std::pair<const char*, int>{"newton-cubic", 64},
+                                         {"rosa-rational", 72},
+                                         {"classic-julia", 80}}) {
+    SCOPED_TRACE(name);
+    Params p = preset(name);
+    p.resolution = resolution;
+    expect_same_files(p, ".ply", false, &removed);
+    expect_same_files(p, ".stl", false);
+  }
+  EXPECT_GT(removed, 0u) << "the dust removal across ranks was not exercised";
+}
+
+TEST(Distributed, ColoursClipAndMinComponentGiveTheFileOfOneProcess) {
+  Params p = preset("newton-cubic");
+  p.resolution = 60;
+  p.mesh.color = ColorMode::kBasin;
+  p.mesh.min_component = 1e-3;
+  p.mesh.clip.push_back({{1, 0.3, 0}, 0.2});
+  expect_same_files(p, ".ply", false);
+}
+
+TEST(Distributed, StagesOnTheWholeMeshRunOnRankZeroAfterAGather) {
+  Params p = preset("classic-julia");
+  p.resolution = 64;
+  p.mesh.faces = 3000;
+  expect_same_files(p, ".ply", true);
+  Params q = preset("newton-cubic");
+  q.resolution = 48;
+  expect_same_files(q, ".glb", true);
+  expect_same_files(q, ".obj", true);
+}
+
+TEST(Distributed, TheGridIsNotGatheredSoVdbIsRefusedOnEveryRank) {
+  Params p = preset("newton-cubic");
+  p.resolution = 32;
+  PipelineOptions po;
+  po.keep_grid = true;
+  po.outputs = {MeshFormat::kPly};
+  std::vector<int> refused(2, 0);
+  test::run_ranks(2, [&](Comm& comm) {
+    try {
+      run_pipeline_distributed(p, po, comm);
+    } catch (const InvalidInput& e) {
+      refused[comm.rank()] = std::string(e.what()).find("--vdb") != std::string::npos;
+    }
+  });
+  EXPECT_EQ(refused, std::vector<int>({1, 1}));
+}
+
+TEST(Distributed, BadParametersThrowTheSameErrorOnEveryRank) {
+  Params p = preset("newton-cubic");
+  p.formula = "h^^2";
+  std::vector<std::string> messages(3);
+  test::run_ranks(3, [&](Comm& comm) {
+    try {
+      run_pipeline_distributed(p, {}, comm);
+    } catch (const InvalidInput& e) {
+      messages[comm.rank()] = e.what();
+    }
+  });
+  EXPECT_FALSE(messages[0].empty());
+  EXPECT_EQ(messages[1], messages[0]);
+  EXPECT_EQ(messages[2], messages[0]);
 }
 
 }  // namespace

@@ -17,7 +17,7 @@ namespace qjulia::test {
 
 class ThreadWorld {
  public:
-  explicit ThreadWorld(int size) : size_(size), slots_(size), inbox_(size) {}
+  explicit ThreadWorld(int size) : slots_(size), inbox_(size), size_(size) {}
 
   // Every rank posts its part, waits for all, reads, and waits again before the next round.
   template <class Post, class Read>

@@ -29,6 +29,26 @@ struct ExportData {
   const CancelToken* cancel = nullptr;        ///< checked between blocks written
 };
 
+/// The ExportData of `mesh` for `path` (parameters checked and split, normals made unit length,
+/// colours clamped), as write_mesh() gives it to the writers.
+ExportData export_data(const std::string& path, const TriMesh& mesh, const ExportOptions& opts);
+
+/// The pieces of the binary PLY and STL files, for write_ply(), write_stl() and the ranks of a
+/// distributed run, which write the same bytes in parts.
+std::string ply_header(const ExportData& data, std::size_t vertices, std::size_t faces);
+inline std::size_t ply_vertex_record(const ExportData& data) {
+  return data.colors.empty() ? 24 : 27;
+}
+constexpr std::size_t kPlyFaceRecord = 13;
+/// The record of vertex v of data.mesh.
+void put_ply_vertex(char* p, const ExportData& data, std::size_t v);
+void put_ply_face(char* p, const std::array<std::uint32_t, 3>& t);
+/// The 80-byte header and the triangle count.
+std::string stl_header(const ExportData& data, std::uint32_t count);
+constexpr std::size_t kStlFaceRecord = 50;
+void put_stl_face(char* p, const std::array<float, 3>& a, const std::array<float, 3>& b,
+                  const std::array<float, 3>& c);
+
 void write_gltf(const std::string& path, const ExportData& data, bool binary);
 void write_obj(const std::string& path, const ExportData& data);
 void write_ply(const std::string& path, const ExportData& data);

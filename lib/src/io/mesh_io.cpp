@@ -233,16 +233,13 @@ const char* extension_of(MeshFormat format) {
   return "";
 }
 
-void write_mesh(const std::string& path, const TriMesh& mesh, const ExportOptions& opts) {
-  const MeshFormat format = format_from_path(path);
-  validate_mesh(mesh, path, {/*faces=*/true});
-  throw_if_cancelled(opts.cancel);
-  if (opts.progress && !opts.progress(0.0)) throw Cancelled();
+namespace detail {
 
-  detail::ExportData data{
-      mesh, {}, {}, {}, {}, opts.unit, std::string("qjulia ") + QJULIA_VERSION, opts.cancel};
-  detail::set_params(path, opts.params_json, data);
-  data.normals = detail::unit_normals(mesh);
+ExportData export_data(const std::string& path, const TriMesh& mesh, const ExportOptions& opts) {
+  ExportData data{mesh,       {}, {}, {}, {}, opts.unit, std::string("qjulia ") + QJULIA_VERSION,
+                  opts.cancel};
+  set_params(path, opts.params_json, data);
+  data.normals = unit_normals(mesh);
   if (!mesh.colors.empty()) {
     data.colors.resize(mesh.colors.size());
     for (std::size_t v = 0; v < mesh.colors.size(); ++v)
@@ -251,6 +248,18 @@ void write_mesh(const std::string& path, const TriMesh& mesh, const ExportOption
         data.colors[v][i] = std::isfinite(c) ? std::clamp(c, 0.0f, 1.0f) : 0.0f;
       }
   }
+  return data;
+}
+
+}  // namespace detail
+
+void write_mesh(const std::string& path, const TriMesh& mesh, const ExportOptions& opts) {
+  const MeshFormat format = format_from_path(path);
+  validate_mesh(mesh, path, {/*faces=*/true});
+  throw_if_cancelled(opts.cancel);
+  if (opts.progress && !opts.progress(0.0)) throw Cancelled();
+
+  const detail::ExportData data = detail::export_data(path, mesh, opts);
 
   switch (format) {
     case MeshFormat::kGlb:

@@ -1,9 +1,13 @@
 #include "qjulia/pipeline/pipeline.h"
 
 #include <chrono>
+#include <cstring>
 #include <nlohmann/json.hpp>
 
+#include "base/distribution.h"
 #include "base/mesh_json.h"
+#include "grid/grid_impl.h"
+#include "io/part_writer.h"
 #include "pipeline/dust.h"
 #include "qjulia/base/error.h"
 #include "qjulia/base/memory.h"
@@ -11,7 +15,9 @@
 #include "qjulia/mesh/clean.h"
 #include "qjulia/mesh/decimate.h"
 #include "qjulia/mesh/print.h"
+#include "qjulia/pipeline/distributed.h"
 #include "qjulia/surface/extract.h"
+#include "surface/part.h"
 
 namespace qjulia {
 namespace {
@@ -44,6 +50,56 @@ class StageTimer {
   std::string stage_;
   std::chrono::steady_clock::time_point begin_;
 };
+
+// The stages after the dust, on the whole mesh: printing (scale first, the thickness is in
+// millimetres; thicken, then decimate, so the face budget holds for the final mesh), the
+// self-intersection check, the normals and the measures. `known`: the measures of `mesh`
+// while they stay true.
+void finish_mesh(const Params& params, const PipelineOptions& opts, TriMesh& mesh,
+                 std::optional<MeshMeasure>& known, RunStats& stats, StageTimer& timer) {
+  if (params.print.size_mm) {
+    timer.start("scale");
+    stats.scale = scale_to_longest_side(mesh, *params.print.size_mm);
+    stats.unit = "mm";
+    // The scaled positions are rounded to floats again: the written mesh is measured anew.
+    known.reset();
+    timer.stop();
+  }
+  if (params.print.min_thickness_mm) {
+    ThickenOptions topts;
+    // Without --size the mesh is in model units, read as millimetres.
+    topts.min_thickness = *params.print.min_thickness_mm;
+    topts.cancel = opts.cancel;
+    topts.progress = timer.start("thicken");
+    mesh = thicken(mesh, topts);
+    known.reset();
+    timer.stop();
+  }
+  if (params.mesh.faces || params.mesh.max_error) {
+    DecimateOptions dopts;
+    dopts.faces = params.mesh.faces;
+    // max_error is in model units; the mesh may have been scaled to millimetres.
+    if (params.mesh.max_error) dopts.max_error = *params.mesh.max_error * stats.scale;
+    dopts.avoid_self_intersections = params.print.check;
+    dopts.cancel = opts.cancel;
+    dopts.progress = timer.start("decimate");
+    DecimateReport dreport;
+    mesh = decimate(mesh, dopts, &dreport);
+    known.reset();
+    timer.stop();
+    stats.decimate = dreport;
+  }
+  if (params.print.check) {
+    timer.start("check");
+    stats.self_intersections = count_self_intersections(mesh);
+    timer.stop();
+  }
+  if (mesh.normals.size() != mesh.positions.size()) compute_normals(mesh);
+
+  timer.start("measure");
+  stats.measure = known ? std::move(*known) : measure(mesh);
+  timer.stop();
+}
 
 }  // namespace
 
@@ -122,54 +178,241 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   timer.stop();
   stats.clean = creport;
 
-  // Printing: scale first (the thickness is in millimetres), thicken, then decimate, so the face
-  // budget holds for the final mesh.
-  if (params.print.size_mm) {
-    timer.start("scale");
-    stats.scale = scale_to_longest_side(mesh, *params.print.size_mm);
-    stats.unit = "mm";
-    // The scaled positions are rounded to floats again: the written mesh is measured anew.
-    known.reset();
-    timer.stop();
-  }
-  if (params.print.min_thickness_mm) {
-    ThickenOptions topts;
-    // Without --size the mesh is in model units, read as millimetres.
-    topts.min_thickness = *params.print.min_thickness_mm;
-    topts.cancel = opts.cancel;
-    topts.progress = timer.start("thicken");
-    mesh = thicken(mesh, topts);
-    known.reset();
-    timer.stop();
-  }
-  if (params.mesh.faces || params.mesh.max_error) {
-    DecimateOptions dopts;
-    dopts.faces = params.mesh.faces;
-    // max_error is in model units; the mesh may have been scaled to millimetres.
-    if (params.mesh.max_error) dopts.max_error = *params.mesh.max_error * stats.scale;
-    dopts.avoid_self_intersections = params.print.check;
-    dopts.cancel = opts.cancel;
-    dopts.progress = timer.start("decimate");
-    DecimateReport dreport;
-    mesh = decimate(mesh, dopts, &dreport);
-    known.reset();
-    timer.stop();
-    stats.decimate = dreport;
-  }
-  if (params.print.check) {
-    timer.start("check");
-    stats.self_intersections = count_self_intersections(mesh);
-    timer.stop();
-  }
-  if (mesh.normals.size() != mesh.positions.size()) compute_normals(mesh);
-
-  timer.start("measure");
-  stats.measure = known ? std::move(*known) : measure(mesh);
-  timer.stop();
+  finish_mesh(params, opts, mesh, known, stats, timer);
   stats.peak_rss_bytes = peak_rss_bytes();
   result.mesh = std::move(mesh);
   if (opts.keep_grid) result.grid = std::move(grid);
   return result;
+}
+
+// ------------------------------------------------------------------------- distributed runs
+
+bool stays_distributed(const Params& params, MeshFormat output, bool preview) {
+  return detail::part_writable(output) && !preview && !params.mesh.faces &&
+         !params.mesh.max_error && !params.print.size_mm && !params.print.min_thickness_mm &&
+         !params.print.check;
+}
+
+DistributedRun::DistributedRun() = default;
+DistributedRun::~DistributedRun() = default;
+DistributedRun::DistributedRun(DistributedRun&&) noexcept = default;
+DistributedRun& DistributedRun::operator=(DistributedRun&&) noexcept = default;
+
+namespace {
+
+// Every rank throws the first failing rank's error, or none does (an error seen by every rank
+// alike, such as bad input, is thrown by each before any collective step).
+void agree_on(Comm& comm, const std::exception_ptr& error) {
+  std::string mine;
+  if (error) {
+    try {
+      std::rethrow_exception(error);
+    } catch (const TooLarge& e) {
+      mine = std::string("T") + e.what();
+    } catch (const InvalidInput& e) {
+      mine = std::string("I") + e.what();
+    } catch (const std::exception& e) {
+      mine = std::string("R") + e.what();
+    }
+  }
+  if (!comm.any(!mine.empty())) return;
+  for (const std::string& e : comm.allgather(mine)) {
+    if (e.empty()) continue;
+    if (e[0] == 'T') throw TooLarge(e.substr(1));
+    if (e[0] == 'I') throw InvalidInput(e.substr(1));
+    throw std::runtime_error(e.substr(1));
+  }
+}
+
+// The whole mesh on rank 0 from the ranks' parts: positions in the whole mesh's numbering,
+// faces in rank order.
+TriMesh gather_mesh(TriMesh& mine, const detail::MeshPart& part, Comm& comm) {
+  Packer p;
+  p.put(part.edge_first);
+  p.put(part.edges);
+  p.put(part.centre_first);
+  p.put(part.vertices_total);
+  p.put_vector(mine.positions);
+  p.put_vector(mine.normals);
+  p.put_vector(mine.colors);
+  p.put_vector(mine.triangles);
+  mine = TriMesh();
+  std::vector<std::string> to(comm.size());
+  to[0] = std::move(p.data);
+  std::vector<std::string> from = comm.exchange(to);
+  TriMesh whole;
+  if (comm.rank() != 0) return whole;
+  for (std::string& bytes : from) {
+    Unpacker u(bytes);
+    const auto edge_first = u.get<std::uint64_t>(), edges = u.get<std::uint64_t>(),
+               centre_first = u.get<std::uint64_t>(), total = u.get<std::uint64_t>();
+    const auto positions = u.get_vector<std::array<float, 3>>();
+    const auto normals = u.get_vector<std::array<float, 3>>();
+    const auto colors = u.get_vector<std::array<float, 3>>();
+    const auto triangles = u.get_vector<std::array<std::uint32_t, 3>>();
+    whole.positions.resize(total);
+    whole.normals.resize(total);
+    if (!colors.empty()) whole.colors.resize(total);
+    for (std::size_t l = 0; l < positions.size(); ++l) {
+      const std::size_t v = l < edges ? edge_first + l : centre_first + (l - edges);
+      whole.positions[v] = positions[l];
+      whole.normals[v] = normals[l];
+      if (!colors.empty()) whole.colors[v] = colors[l];
+    }
+    whole.triangles.insert(whole.triangles.end(), triangles.begin(), triangles.end());
+    std::string().swap(bytes);
+  }
+  return whole;
+}
+
+}  // namespace
+
+DistributedRun run_pipeline_distributed(const Params& params, const PipelineOptions& opts,
+                                        Comm& comm) {
+  const auto started = std::chrono::steady_clock::now();
+  if (opts.keep_grid)
+    throw InvalidInput(
+        "--vdb is not available across ranks (the grid is not gathered); run "
+        "qjulia mesh on one machine for the grid");
+  const Solid solid(params);  // every rank validates alike
+  DistributedRun run;
+  RunStats& stats = run.result.stats;
+  StageTimer timer(stats, opts.progress, opts.cancel);
+  const bool gather = opts.outputs.empty() || opts.preview ||
+                      !stays_distributed(params, opts.outputs.front(), opts.preview) ||
+                      opts.outputs.size() > 1;
+  // The estimate on rank 0, for the largest rank (rank 0 when the mesh is gathered); the
+  // verdict is every rank's.
+  {
+    timer.start("estimate");
+    std::exception_ptr error;
+    if (comm.rank() == 0) {
+      try {
+        RunPlan plan;
+        plan.outputs = opts.outputs;
+        plan.dense = opts.dense;
+        plan.preview = opts.preview;
+        plan.ranks = comm.size();
+        plan.gathered = gather;
+        plan.cancel = opts.cancel;
+        stats.estimate = estimate_run(params, plan);
+        const MemoryLimits limits = memory_limits(opts.max_memory);
+        stats.memory_limit = limits.effective();
+        stats.memory_limit_source = limits.describe() + " (rank 0)";
+        check_run(params, plan, stats.estimate, limits);
+      } catch (...) {
+        error = std::current_exception();
+      }
+    }
+    timer.stop();
+    agree_on(comm, error);
+  }
+
+  detail::Distribution dist;
+  dist.comm = &comm;
+  const double wait_before = comm.wait_seconds;
+  SampleOptions sopts;
+  sopts.dense = opts.dense;
+  sopts.cancel = opts.cancel;
+  sopts.distribution = &dist;
+  sopts.progress = timer.start("sample");
+  SampledGrid grid = sample(solid, sopts);
+  timer.stop();
+  RunStats::Rank me;
+  me.bricks = grid.impl().bricks.size();
+  me.evaluations = grid.evaluations();
+  stats.evaluations = comm.sum(grid.evaluations());
+  stats.dense_evaluations = grid.dense_evaluations();
+  stats.crossing_cells = comm.sum(grid.crossing_cells());
+  stats.voxel_size = grid.voxel_size();
+  stats.grid_points = grid.points();
+
+  ExtractOptions eopts;
+  eopts.color = params.mesh.color;
+  eopts.cancel = opts.cancel;
+  eopts.progress = timer.start("extract");
+  ExtractStats estats;
+  auto part = std::make_unique<detail::MeshPart>();
+  TriMesh mesh = detail::extract_part(std::move(grid), eopts, estats, *part);
+  timer.stop();
+  me.evaluations += estats.evaluations;
+  stats.refine_evaluations = comm.sum(estats.evaluations);
+  stats.unembedded_cells = estats.unembedded_cells;
+
+  // Dust, across the ranks (the measures are rank 0's); a mesh whose bricks did not check out
+  // is gathered and cleaned by clean() on rank 0.
+  std::optional<MeshMeasure> known;
+  timer.start("clean");
+  const bool valid = estats.measure_valid;
+  if (valid) {
+    const double voxel = stats.voxel_size;
+    const double threshold = params.mesh.min_component ? *params.mesh.min_component
+                                                       : kDefaultDustVoxels * voxel * voxel * voxel;
+    stats.clean = detail::remove_dust_part(mesh, estats, threshold, *part);
+    if (comm.rank() == 0) known = std::move(estats.measure);
+  }
+  timer.stop();
+
+  // Every rank's figures, on rank 0.
+  me.bytes_sent = comm.bytes_sent;
+  me.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  me.busy_seconds = me.seconds - (comm.wait_seconds - wait_before);
+  {
+    const std::vector<std::string> all =
+        comm.allgather(std::string(reinterpret_cast<const char*>(&me), sizeof me));
+    for (const std::string& f : all) {
+      RunStats::Rank r;
+      std::memcpy(&r, f.data(), sizeof r);
+      stats.ranks.push_back(r);
+    }
+  }
+
+  if (!gather && valid) {
+    if (comm.rank() == 0) stats.measure = std::move(*known);
+    run.part_mesh_ = std::move(mesh);
+    run.part_ = std::move(part);
+    stats.peak_rss_bytes = peak_rss_bytes();
+    return run;
+  }
+  // The stages that need the whole mesh, on rank 0.
+  timer.start("gather");
+  TriMesh whole = gather_mesh(mesh, *part, comm);
+  timer.stop();
+  stats.gathered = true;
+  if (comm.rank() == 0) {
+    if (!valid) {
+      CleanOptions copts;
+      copts.min_component_volume = params.mesh.min_component;
+      copts.voxel_size = stats.voxel_size;
+      copts.cancel = opts.cancel;
+      copts.progress = timer.start("clean");
+      CleanReport creport;
+      whole = clean(whole, copts, &creport);
+      stats.clean = creport;
+      timer.stop();
+    }
+    finish_mesh(params, opts, whole, known, stats, timer);
+    run.result.mesh = std::move(whole);
+  }
+  stats.peak_rss_bytes = peak_rss_bytes();
+  return run;
+}
+
+void write_distributed(const std::string& path, const DistributedRun& run,
+                       const ExportOptions& opts, Comm& comm) {
+  if (!run.gathered()) {
+    detail::write_mesh_part(path, run.part_mesh_, *run.part_, opts);
+    return;
+  }
+  std::exception_ptr error;
+  if (comm.rank() == 0) {
+    try {
+      write_mesh(path, run.result.mesh, opts);
+    } catch (...) {
+      error = std::current_exception();
+    }
+  }
+  agree_on(comm, error);
 }
 
 std::string stats_to_json(const RunStats& s, const Params& params) {
@@ -231,6 +474,25 @@ std::string stats_to_json(const RunStats& s, const Params& params) {
     if (d.self_intersections) j["decimate"]["self_intersections"] = *d.self_intersections;
   }
   if (s.self_intersections) j["self_intersections"] = *s.self_intersections;
+  if (!s.ranks.empty()) {
+    json ranks = json::array();
+    double busy_max = 0, busy_sum = 0;
+    for (std::size_t r = 0; r < s.ranks.size(); ++r) {
+      const RunStats::Rank& k = s.ranks[r];
+      ranks.push_back({{"rank", r},
+                       {"bricks", k.bricks},
+                       {"evaluations", k.evaluations},
+                       {"seconds", k.seconds},
+                       {"busy_seconds", k.busy_seconds},
+                       {"bytes_sent", k.bytes_sent}});
+      busy_max = std::max(busy_max, k.busy_seconds);
+      busy_sum += k.busy_seconds;
+    }
+    j["ranks"] = ranks;
+    // The slowest rank's work against the mean: 1 when balanced.
+    j["load_imbalance"] = busy_sum > 0 ? busy_max * s.ranks.size() / busy_sum : 1.0;
+    j["gathered"] = s.gathered;
+  }
   if (params.print.size_mm || params.print.min_thickness_mm || params.print.check) {
     json pr;
     pr["closed"] = m.closed;

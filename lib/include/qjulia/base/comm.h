@@ -40,6 +40,8 @@ class Comm {
 
   /// Bytes this rank has sent to other ranks.
   std::uint64_t bytes_sent = 0;
+  /// Seconds this rank has spent in collective operations (waiting for the others, mostly).
+  double wait_seconds = 0;
 };
 
 /// Appends plain values to a byte buffer.
