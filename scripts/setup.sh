@@ -7,7 +7,8 @@ packages=(cmake g++ make ccache pkg-config
   libopenvdb-dev libboost-iostreams-dev libtbb-dev libopenmesh-dev libcgal-dev
   libtinygltf-dev libstb-dev nlohmann-json3-dev libgtest-dev lib3mf-dev libzip-dev
   libmeshoptimizer-dev libpng-dev libhwy-dev clang-16 libfuzzer-16-dev
-  pybind11-dev python3-pybind11 python3-dev python3-numpy python3-pytest blender xvfb xauth)
+  pybind11-dev python3-pybind11 python3-dev python3-numpy python3-pytest blender xvfb xauth
+  libopenmpi-dev openmpi-bin)
 if [[ "${1:-}" == "--validate" ]]; then
   packages+=(python3-numpy python3-scipy python3-openvdb)
   command -v node >/dev/null 2>&1 || packages+=(nodejs npm)
