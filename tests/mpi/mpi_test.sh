@@ -71,5 +71,20 @@ grep -q -- "--vdb is not available across ranks" "$work/err" || { cat "$work/err
 [ "$(grep -c "^qjulia-mpi mesh:" "$work/err")" = 1 ] || { cat "$work/err"; fail "the --vdb message is not printed once"; }
 [ ! -e "$work/v.ply" ] && [ ! -e "$work/v.vdb" ] || fail "files written despite --vdb refusal"
 echo "ok: bad input and --vdb exit 2 with one message"
+# SIGINT to mpirun during a long run: every rank stops, the job exits non-zero, no file.
+mkdir "$work/sig"
+"$mpiexec" -n 2 "$qjulia_mpi" mesh --resolution 512 --threads 1 --quiet -o "$work/sig/big.ply" \
+  --stats "$work/sig/big.json" >"$work/sig.out" 2>&1 &
+job=$!
+sleep 2
+kill -INT "$job"
+set +e
+wait "$job"
+code=$?
+set -e
+[ "$code" != 0 ] || fail "the interrupted job exited 0"
+[ -z "$(ls -A "$work/sig")" ] || fail "the interrupted job left $(ls -A "$work/sig")"
+grep -q "interrupted" "$work/sig.out" || { cat "$work/sig.out"; fail "no interruption message"; }
+echo "ok: SIGINT to mpirun ends every rank (exit $code), no file left"
 ls -A "$work" | grep -q "tmp-" && fail "a temporary file was left: $(ls -A "$work")"
 echo "qjulia-mpi: all checks passed"

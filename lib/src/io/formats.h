@@ -19,8 +19,18 @@ namespace qjulia::detail {
 /// What every writer receives: the checked mesh, unit normals for every vertex, colours
 /// clamped to [0, 1] (or empty), and the parameters pretty-printed (or empty).
 struct ExportData {
+  /// The normals written: the mesh's own when each is unit length to 1e-6 (no copy, so a mesh
+  /// from the pipeline is not duplicated), else `made`.
+  struct Normals {
+    const std::array<float, 3>* p = nullptr;
+    std::size_t n = 0;
+    const std::array<float, 3>& operator[](std::size_t i) const { return p[i]; }
+    const std::array<float, 3>* data() const { return p; }
+    std::size_t size() const { return n; }
+  };
   const TriMesh& mesh;
-  std::vector<std::array<float, 3>> normals;  ///< #V unit vectors
+  Normals normals;                                 ///< #V unit vectors
+  std::vector<std::array<float, 3>> made_normals;  ///< where `normals` points unless the mesh's
   std::vector<std::array<float, 3>> colors;   ///< empty or #V linear RGB in [0, 1]
   std::string params_json;                    ///< the parameters as pretty JSON, or empty
   std::vector<std::string> params_lines;      ///< params_json split at newlines

@@ -47,7 +47,7 @@ void ReadContext::charge(std::size_t count, std::size_t size, const std::string&
 
 namespace {
 
-/// Unit normals for every vertex: the given ones where they are finite and non-zero, otherwise
+/// Unit normals for every vertex: the given ones, normalized, where they are finite and non-zero, otherwise
 /// area-weighted face normals; (0, 0, 1) where nothing defines a direction.
 std::vector<std::array<float, 3>> unit_normals(const TriMesh& mesh) {
   const std::size_t nv = mesh.positions.size();
@@ -236,10 +236,18 @@ const char* extension_of(MeshFormat format) {
 namespace detail {
 
 ExportData export_data(const std::string& path, const TriMesh& mesh, const ExportOptions& opts) {
-  ExportData data{mesh,       {}, {}, {}, {}, opts.unit, std::string("qjulia ") + QJULIA_VERSION,
+  ExportData data{mesh, {}, {}, {}, {}, {}, opts.unit, std::string("qjulia ") + QJULIA_VERSION,
                   opts.cancel};
   set_params(path, opts.params_json, data);
-  data.normals = unit_normals(mesh);
+  const std::size_t nv = mesh.positions.size();
+  bool unit = mesh.normals.size() == nv;
+  for (std::size_t v = 0; unit && v < nv; ++v) {
+    const auto& g = mesh.normals[v];
+    const double len2 = double(g[0]) * g[0] + double(g[1]) * g[1] + double(g[2]) * g[2];
+    unit = std::abs(len2 - 1.0) < 1e-6;  // false for NaN too
+  }
+  if (!unit) data.made_normals = unit_normals(mesh);
+  data.normals = {unit ? mesh.normals.data() : data.made_normals.data(), nv};
   if (!mesh.colors.empty()) {
     data.colors.resize(mesh.colors.size());
     for (std::size_t v = 0; v < mesh.colors.size(); ++v)
