@@ -20,9 +20,11 @@ export LSAN_OPTIONS="suppressions=$supp/lsan.supp:print_suppressions=0"
 # tests that run the library inside another program (Python, Blender, mpirun, a browser) are
 # not built here: an instrumented module or binary needs the sanitizer runtime preloaded into
 # an uninstrumented interpreter; the code they reach is run under the sanitizers by the gtest
-# suites (dist_test runs the distributed stages with ranks as threads). Every other test runs.
+# suites (dist_test runs the distributed stages with ranks as threads). The embedding check at
+# 256 (a minute in Release, CGAL's exact predicates on millions of faces) is left to the Release
+# run; the same code is run here by every other extraction test. Every other test runs.
 ctest --test-dir build-asan --output-on-failure -j "$(nproc)" \
-  -E '^MeshStages/Signals\.|^python_module$|^blender_addon|^mpi_same_files$|^explore_' "$@"
+  -E '^MeshStages/Signals\.|^Extract\.TheSurfaceIsEmbeddedOnEveryPreset$|^python_module$|^blender_addon|^mpi_same_files$|^explore_' "$@"
 end=$(date +%s)
 echo "sanitize: build $(((built - start) / 60)) min $(((built - start) % 60)) s, tests" \
   "$(((end - built) / 60)) min $(((end - built) % 60)) s"
