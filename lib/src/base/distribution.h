@@ -1,5 +1,6 @@
 #pragma once
 // How the bricks of a distributed run are dealt to its ranks.
+#include <exception>
 #include <vector>
 
 #include "qjulia/base/comm.h"
@@ -23,5 +24,23 @@ struct Distribution {
     return bx >= first[r] && bx < first[r + 1];
   }
 };
+
+/// Every rank throws the first failing rank's error (TooLarge, InvalidInput, or else a
+/// std::runtime_error with its message), or none does. Collective.
+void agree_on(Comm& comm, const std::exception_ptr& error);
+
+/// Runs f() on rank 0 only; then every rank throws what it threw, or none does. Collective.
+template <class F>
+void on_rank_zero(Comm& comm, F&& f) {
+  std::exception_ptr error;
+  if (comm.rank() == 0) {
+    try {
+      f();
+    } catch (...) {
+      error = std::current_exception();
+    }
+  }
+  agree_on(comm, error);
+}
 
 }  // namespace qjulia::detail

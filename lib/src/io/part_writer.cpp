@@ -2,29 +2,13 @@
 
 #include <stdexcept>
 
+#include "base/distribution.h"
 #include "io/formats.h"
 #include "qjulia/base/atomic_file.h"
 #include "qjulia/base/error.h"
 
 namespace qjulia::detail {
 namespace {
-
-// Agrees on the outcome of a step: every rank throws the first failing rank's error (as
-// InvalidInput when it was one), or none does.
-void agree(Comm& comm, const std::string& error, bool invalid_input) {
-  if (!comm.any(!error.empty())) return;
-  std::string first;
-  bool invalid = false;
-  const auto all = comm.allgather((invalid_input ? "I" : "R") + error);
-  for (const std::string& e : all)
-    if (e.size() > 1) {
-      first = e.substr(1);
-      invalid = e[0] == 'I';
-      break;
-    }
-  if (invalid) throw InvalidInput(first);
-  throw std::runtime_error(first);
-}
 
 // Writes `bytes` at `offset` in blocks; false on failure.
 class RangeWriter {
@@ -61,29 +45,22 @@ void write_mesh_part(const std::string& path, const TriMesh& mesh, const MeshPar
     throw std::logic_error("write_mesh_part: the part has no normals");
   // Rank 0 makes the temporary file (the checks and the naming of every output file).
   std::unique_ptr<AtomicFile> file;
-  std::string error;
-  bool invalid = false;
   std::string temp;
-  if (comm.rank() == 0) {
-    try {
-      file = std::make_unique<AtomicFile>(path, opts.cancel);
-      file->close_for_external();
-      temp = file->temp_path();
-    } catch (const InvalidInput& e) {
-      error = e.what();
-      invalid = true;
-    } catch (const std::exception& e) {
-      error = e.what();
-    }
-  }
-  agree(comm, error, invalid);
+  on_rank_zero(comm, [&] {
+    file = std::make_unique<AtomicFile>(path, opts.cancel);
+    file->close_for_external();
+    temp = file->temp_path();
+  });
   comm.broadcast(temp);
   // The same ExportData on every rank (the parameters, the normals made unit length) for the
   // records of its own vertices.
   const ExportData data = export_data(path, mesh, opts);
-  if (!comm.file_open(temp))
-    error = path + ": cannot open the file on rank " + std::to_string(comm.rank());
-  agree(comm, error, false);
+  auto fail_unless = [&](bool ok, const std::string& what) {
+    agree_on(comm, ok ? nullptr
+                      : std::make_exception_ptr(std::runtime_error(
+                            path + ": " + what + " on rank " + std::to_string(comm.rank()))));
+  };
+  fail_unless(comm.file_open(temp), "cannot open the file");
   bool ok = true;
   if (format == MeshFormat::kPly) {
     const std::string header = ply_header(data, part.vertices_total, part.faces_total);
@@ -112,19 +89,8 @@ void write_mesh_part(const std::string& path, const TriMesh& mesh, const MeshPar
     ok = ok && faces.ok;
   }
   if (!comm.file_close()) ok = false;
-  agree(comm, ok ? "" : path + ": write failed on rank " + std::to_string(comm.rank()), false);
-  error.clear();
-  if (comm.rank() == 0) {
-    try {
-      file->commit();  // flushed to the disk, renamed
-    } catch (const InvalidInput& e) {
-      error = e.what();
-      invalid = true;
-    } catch (const std::exception& e) {
-      error = e.what();
-    }
-  }
-  agree(comm, error, invalid);
+  fail_unless(ok, "write failed");
+  on_rank_zero(comm, [&] { file->commit(); });  // flushed to the disk, renamed
 }
 
 }  // namespace qjulia::detail

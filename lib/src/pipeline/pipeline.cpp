@@ -51,6 +51,26 @@ class StageTimer {
   std::chrono::steady_clock::time_point begin_;
 };
 
+// The figures of the sampled grid (summed over the ranks of a distributed run).
+void record_grid(const SampledGrid& grid, Comm* comm, RunStats& stats) {
+  auto total = [&](std::uint64_t v) { return comm ? comm->sum(v) : v; };
+  stats.evaluations = total(grid.evaluations());
+  stats.dense_evaluations = grid.dense_evaluations();
+  stats.crossing_cells = total(grid.crossing_cells());
+  stats.voxel_size = grid.voxel_size();
+  stats.grid_points = grid.points();
+}
+
+// The extraction's options; starts its stage.
+ExtractOptions extract_options(const Params& params, const PipelineOptions& opts,
+                               StageTimer& timer) {
+  ExtractOptions eopts;
+  eopts.color = params.mesh.color;
+  eopts.cancel = opts.cancel;
+  eopts.progress = timer.start("extract");
+  return eopts;
+}
+
 // The stages after the dust, on the whole mesh: printing (scale first, the thickness is in
 // millimetres; thicken, then decimate, so the face budget holds for the final mesh), the
 // self-intersection check, the normals and the measures. `known`: the measures of `mesh`
@@ -134,16 +154,9 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   sopts.progress = timer.start("sample");
   SampledGrid grid = sample(solid, sopts);
   timer.stop();
-  stats.evaluations = grid.evaluations();
-  stats.dense_evaluations = grid.dense_evaluations();
-  stats.crossing_cells = grid.crossing_cells();
-  stats.voxel_size = grid.voxel_size();
-  stats.grid_points = grid.points();
+  record_grid(grid, nullptr, stats);
 
-  ExtractOptions eopts;
-  eopts.color = params.mesh.color;
-  eopts.cancel = opts.cancel;
-  eopts.progress = timer.start("extract");
+  const ExtractOptions eopts = extract_options(params, opts, timer);
   ExtractStats estats;
   TriMesh mesh =
       opts.keep_grid ? extract(grid, eopts, &estats) : extract(std::move(grid), eopts, &estats);
@@ -199,30 +212,6 @@ DistributedRun::DistributedRun(DistributedRun&&) noexcept = default;
 DistributedRun& DistributedRun::operator=(DistributedRun&&) noexcept = default;
 
 namespace {
-
-// Every rank throws the first failing rank's error, or none does (an error seen by every rank
-// alike, such as bad input, is thrown by each before any collective step).
-void agree_on(Comm& comm, const std::exception_ptr& error) {
-  std::string mine;
-  if (error) {
-    try {
-      std::rethrow_exception(error);
-    } catch (const TooLarge& e) {
-      mine = std::string("T") + e.what();
-    } catch (const InvalidInput& e) {
-      mine = std::string("I") + e.what();
-    } catch (const std::exception& e) {
-      mine = std::string("R") + e.what();
-    }
-  }
-  if (!comm.any(!mine.empty())) return;
-  for (const std::string& e : comm.allgather(mine)) {
-    if (e.empty()) continue;
-    if (e[0] == 'T') throw TooLarge(e.substr(1));
-    if (e[0] == 'I') throw InvalidInput(e.substr(1));
-    throw std::runtime_error(e.substr(1));
-  }
-}
 
 // The whole mesh on rank 0 from the ranks' parts: positions in the whole mesh's numbering,
 // faces in rank order.
@@ -305,7 +294,7 @@ DistributedRun run_pipeline_distributed(const Params& params, const PipelineOpti
       }
     }
     timer.stop();
-    agree_on(comm, error);
+    detail::agree_on(comm, error);
   }
 
   detail::Distribution dist;
@@ -321,16 +310,9 @@ DistributedRun run_pipeline_distributed(const Params& params, const PipelineOpti
   RunStats::Rank me;
   me.bricks = grid.impl().bricks.size();
   me.evaluations = grid.evaluations();
-  stats.evaluations = comm.sum(grid.evaluations());
-  stats.dense_evaluations = grid.dense_evaluations();
-  stats.crossing_cells = comm.sum(grid.crossing_cells());
-  stats.voxel_size = grid.voxel_size();
-  stats.grid_points = grid.points();
+  record_grid(grid, &comm, stats);
 
-  ExtractOptions eopts;
-  eopts.color = params.mesh.color;
-  eopts.cancel = opts.cancel;
-  eopts.progress = timer.start("extract");
+  const ExtractOptions eopts = extract_options(params, opts, timer);
   ExtractStats estats;
   auto part = std::make_unique<detail::MeshPart>();
   TriMesh mesh = detail::extract_part(std::move(grid), eopts, estats, *part);
@@ -412,7 +394,7 @@ void write_distributed(const std::string& path, const DistributedRun& run,
       error = std::current_exception();
     }
   }
-  agree_on(comm, error);
+  detail::agree_on(comm, error);
 }
 
 std::string stats_to_json(const RunStats& s, const Params& params) {
