@@ -50,3 +50,5 @@ qjulia_dependency(meshoptimizer)
 qjulia_dependency(PNG)
 qjulia_dependency(PkgConfig)
 pkg_check_modules(LIB3MF REQUIRED IMPORTED_TARGET lib3MF)
+# libzip: the 3MF reader checks archives with it before lib3mf parses them.
+pkg_check_modules(LIBZIP REQUIRED IMPORTED_TARGET libzip)

@@ -11,6 +11,9 @@ install(TARGETS qjulia EXPORT qjuliaTargets
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/lib/include/qjulia
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
 install(TARGETS qjulia_cli EXPORT qjuliaTargets RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+if(TARGET qjulia_mpi)
+  install(TARGETS qjulia_mpi RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+endif()
 install(EXPORT qjuliaTargets NAMESPACE qjulia:: DESTINATION ${QJULIA_CMAKE_DIR})
 
 configure_package_config_file(${CMAKE_CURRENT_LIST_DIR}/qjuliaConfig.cmake.in

@@ -8,6 +8,7 @@ packages=(cmake g++ make ccache pkg-config
   libtinygltf-dev libstb-dev nlohmann-json3-dev libgtest-dev lib3mf-dev libzip-dev
   libmeshoptimizer-dev libpng-dev libhwy-dev clang-16 libfuzzer-16-dev
   pybind11-dev python3-pybind11 python3-dev python3-numpy python3-pytest blender xvfb xauth
+  libopenmpi-dev openmpi-bin
   libcpp-httplib-dev chromium)
 # Node.js and npm (qjulia explore's page and its browser test): a Node.js already on PATH, e.g.
 # one from outside Debian, is used with its own npm; otherwise Debian's.

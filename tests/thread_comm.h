@@ -1,6 +1,9 @@
 #pragma once
 // Ranks as threads of one process, for testing the distributed stages without MPI: run(K, f)
 // calls f(comm) on K threads, each with its own Comm; the collectives meet at a barrier.
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <condition_variable>
 #include <exception>
 #include <functional>
@@ -8,13 +11,13 @@
 #include <thread>
 #include <vector>
 
-#include "base/comm.h"
+#include "qjulia/base/comm.h"
 
 namespace qjulia::test {
 
 class ThreadWorld {
  public:
-  explicit ThreadWorld(int size) : size_(size), slots_(size), inbox_(size) {}
+  explicit ThreadWorld(int size) : slots_(size), inbox_(size), size_(size) {}
 
   // Every rank posts its part, waits for all, reads, and waits again before the next round.
   template <class Post, class Read>
@@ -29,6 +32,7 @@ class ThreadWorld {
   int size() const { return size_; }
   std::vector<std::string> slots_;               // allgather / broadcast / sums
   std::vector<std::vector<std::string>> inbox_;  // exchange: inbox_[to][from]
+  int fd_ = -1;                                  // the shared output file
 
  private:
   void arrive(std::unique_lock<std::mutex>& lock) {
@@ -48,7 +52,7 @@ class ThreadWorld {
   std::uint64_t generation_ = 0;
 };
 
-class ThreadComm : public detail::Comm {
+class ThreadComm : public Comm {
  public:
   ThreadComm(ThreadWorld& world, int rank) : world_(world), rank_(rank) {}
   int rank() const override { return rank_; }
@@ -95,6 +99,35 @@ class ThreadComm : public detail::Comm {
   }
   bool any(bool mine) override { return sum(mine ? 1 : 0) > 0; }
   void broadcast(std::string& data) override { data = allgather(data)[0]; }
+  bool file_open(const std::string& path) override {
+    bool ok = true;
+    world_.round(
+        rank_,
+        [&](int r) {
+          if (r == 0) world_.fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        },
+        [&](int) { ok = world_.fd_ >= 0; });
+    return ok;
+  }
+  bool file_write_at(std::uint64_t offset, const char* data, std::size_t n) override {
+    while (n > 0) {
+      const ssize_t w = ::pwrite(world_.fd_, data, n, static_cast<off_t>(offset));
+      if (w <= 0) return false;
+      data += w;
+      n -= static_cast<std::size_t>(w);
+      offset += static_cast<std::uint64_t>(w);
+    }
+    return true;
+  }
+  bool file_close() override {
+    bool ok = true;
+    world_.round(
+        rank_, [](int) {},
+        [&](int r) {
+          if (r == 0) ok = ::close(world_.fd_) == 0;
+        });
+    return ok;
+  }
 
  private:
   ThreadWorld& world_;
@@ -102,7 +135,7 @@ class ThreadComm : public detail::Comm {
 };
 
 /// Runs f(comm) on `ranks` threads; rethrows the first exception.
-inline void run_ranks(int ranks, const std::function<void(detail::Comm&)>& f) {
+inline void run_ranks(int ranks, const std::function<void(Comm&)>& f) {
   ThreadWorld world(ranks);
   std::vector<std::thread> threads;
   std::vector<std::exception_ptr> errors(ranks);

@@ -1,167 +1,41 @@
 // qjulia mesh: the whole pipeline from parameters to a mesh file and its stats.
-#include <cstdio>
-
-#include "cli.h"
 #include "commands.h"
-#include "files.h"
+#include "mesh_command.h"
 #include "progress_bar.h"
 #include "qjulia/base/error.h"
 #include "qjulia/io/mesh_io.h"
 #include "qjulia/pipeline/pipeline.h"
-#include "qjulia/render/render.h"
-#include "render_args.h"
 
 namespace qjulia::cli {
-namespace {
-
-constexpr const char* kHelp =
-    R"help(usage: qjulia mesh [PARAMS.json] [options] -o OUT.(glb|gltf|obj|ply|stl|3mf)
-
-Meshes the solid of a quaternionic Julia set. Without parameters: the Newton cubic
-(2h^3+1)/(3h^2) with the cut-off method (preset newton-cubic).
-
-parameters (override the file or preset; each number must lie in the range shown):
-  --preset NAME              start from a built-in preset (qjulia presets)
-  --formula F                e.g. "h^2+c", "(2*h^3+1)/(3*h^2)", "p*h^2+q"
-  --const NAME=w,x,y,z       a quaternion constant (repeatable); NAME=real for a real one;
-                             components -1000000..1000000
-  --mode julia|mandelbrot    mandelbrot: the sampled point is c, h0 = --start
-  --method escape|cutoff     escape: |h_k| <= R for all k; cutoff: |h_k - h_k-1| >= R for all k
-  --iterations N             N, 1..100000
-  --bailout R                R, 1e-12..1e+12
-  --resolution N             voxels along the longest side of the box, 1..1000000 (what fits
-                             in memory is checked before sampling)
-  --bounds x0,y0,z0,x1,y1,z1 the sampled box, -1000000..1000000, x0 < x1, y0 < y1, z0 < z1
-  --axes rmn --fixed W       which quaternion components x, y, z are; the fourth is W,
-                             -1000000..1000000
-  --start w,x,y,z            h0 in Mandelbrot mode, components -1000000..1000000
-mesh:
-  --color iterations|basin|none   per-vertex colours
-  --faces N                  decimate to at most N faces, 4..1000000000
-  --max-error E              decimate within distance E (model units), 1e-09..1000000
-  --min-component V          drop components of volume below V (model units^3), 0..1e+18
-  --clip nx,ny,nz,d          keep n.x <= d, closed by a flat cap (repeatable); components
-                             -1000000..1000000, n not zero
-print:
-  --size 80mm                scale the longest side to this length (output in mm),
-                             0.001..1000000 mm (mm, cm or m)
-  --min-thickness 0.8mm      thicken parts thinner than this, 0.001..1000000 mm
-  --check                    count self-intersections
-run:
-  -o, --output OUT           the mesh file; the format follows the extension
-  --stats FILE               figures of the run as JSON
-  --vdb FILE                 the sampled grid as an OpenVDB file
-  --preview FILE.png         a preview image of the mesh (--preview-shading, --preview-rotate,
-                             ... as for qjulia render; listed below)
-  --dense                    evaluate every grid point (validation)
-  --threads T                worker threads of every stage, 1..1024 (default: all cores)
-  --max-memory SIZE          the memory the run may use, e.g. 4G or 512M (K, M, G, T = 2^10..
-                             2^40 bytes; at least 1M); default: what the system has free
-  --quiet                    no progress bar
-)help";
-
-}  // namespace
 
 int cmd_mesh(const Tokens& tokens, const CancelToken& cancel) {
-  auto specs = param_option_specs();
-  for (const char* name : {"output", "stats", "vdb", "preview", "threads", "max-memory"})
-    specs.push_back({name});
-  for (const char* name : {"dense", "quiet", "help"}) specs.push_back({name, false});
-  const auto preview_specs = render_option_specs("preview-");
-  specs.insert(specs.end(), preview_specs.begin(), preview_specs.end());
-  const ParsedArgs args = parse_args(tokens, specs, "mesh");
-  if (args.has("help")) {
-    std::fputs(kHelp, stdout);
-    std::printf("preview (with --preview):\n%s", render_options_help("preview-").c_str());
-    return 0;
-  }
-  if (args.positional.size() > 1)
-    throw InvalidInput("expected at most one parameter file, got '" + args.positional[1] + "'");
-  const auto out = args.get("output");
-  if (!out) throw InvalidInput("missing -o OUT (e.g. -o julia.glb)");
-  format_from_path(*out);  // an unknown extension fails before any work
-  const Params params = params_from_args(args, args.positional.empty() ? "" : args.positional[0]);
-  const ThreadLimit threads(args);
-  const auto preview = args.get("preview");
-  // Checked before the long run, so a bad value fails at once.
-  RenderOptions preview_options = render_options_from_args(args, "preview-");
-  preview_options.cancel = &cancel;
-  if (preview) check_render_options(preview_options);
-  // Every output is checked before the long run: not an input, not a directory or device.
-  OutputFiles written;
-  if (!args.positional.empty()) written.add_input(args.positional[0]);
-  for (const auto& f : output_files(*out)) written.claim(f);
-  if (format_from_path(*out) == MeshFormat::kStl) written.claim(*out + ".json");
-  for (const char* name : {"vdb", "preview", "stats"})
-    if (auto f = args.get(name)) written.claim(*f);
-
-  PipelineOptions popts;
-  popts.dense = args.has("dense");
-  popts.keep_grid = args.has("vdb");
-  popts.max_memory = max_memory_from_args(args);
-  popts.outputs = {format_from_path(*out)};
-  popts.preview = preview.has_value();
-  popts.cancel = &cancel;
-  ProgressBar bar(args.has("quiet"));
+  const auto cmd = parse_mesh_command(tokens, cancel, "qjulia mesh");
+  if (!cmd) return 0;
+  ProgressBar bar(cmd->args.has("quiet"));
+  PipelineOptions popts = cmd->pipeline;
   popts.progress = bar.callback();
-  PipelineResult result = run_pipeline(params, popts);
+  PipelineResult result = run_pipeline(cmd->params, popts);
 
   if (result.mesh.triangles.empty())
     throw InvalidInput(
         std::string("the solid is empty with these parameters (no grid point of the box "
                     "is in it); nothing written. Hint: check the bailout, the "
                     "iterations and the box (qjulia params shows them)"));
-  const std::string params_json = params_to_json(params);
   ExportOptions eopts;
-  eopts.params_json = params_json;
+  eopts.params_json = cmd->params_json;
   eopts.unit = result.stats.unit;
   eopts.cancel = &cancel;
   eopts.progress = [&bar](double f) {
     bar.update("write", f);
     return true;
   };
-  write_mesh(*out, result.mesh, eopts);
+  write_mesh(cmd->out, result.mesh, eopts);
   bar.finish();
-  for (const auto& f : output_files(*out)) written.add(f);  // .gltf comes with its .bin
-  std::string sidecar;
-  if (format_from_path(*out) == MeshFormat::kStl) {
-    // STL has no room for the parameters: they go into a sidecar file.
-    sidecar = *out + ".json";
-    write_file_atomic(sidecar, params_json);
-    written.add(sidecar);
+  if (cmd->vdb) {
+    result.grid->write_vdb(*cmd->vdb, cmd->params_json);
+    cmd->written.add(*cmd->vdb);
   }
-  if (auto v = args.get("vdb")) {
-    result.grid->write_vdb(*v, params_json);
-    written.add(*v);
-  }
-  if (preview) {
-    write_png(*preview, render(result.mesh, preview_options));
-    written.add(*preview);
-  }
-  const auto stats_path = args.get("stats");
-  if (stats_path) {
-    result.stats.peak_rss_bytes = peak_rss_bytes();
-    write_file_atomic(*stats_path, stats_to_json(result.stats, params));
-    written.add(*stats_path);
-  }
-  throw_if_cancelled(&cancel);  // a signal during the last writes still removes every file
-  written.commit();
-
-  const MeshMeasure& m = result.stats.measure;
-  std::printf("mesh:  %s (%zu vertices, %zu faces, %s, %s, volume %.6g, area %.6g)\n", out->c_str(),
-              m.vertices, m.faces, m.closed ? "closed" : "OPEN",
-              m.manifold ? "manifold" : "NON-MANIFOLD", m.volume, m.area);
-  if (!sidecar.empty()) std::printf("parameters: %s\n", sidecar.c_str());
-  if (stats_path) std::printf("stats: %s\n", stats_path->c_str());
-  if (auto v = args.get("vdb")) std::printf("grid:  %s\n", v->c_str());
-  if (preview) std::printf("preview: %s\n", preview->c_str());
-  double total = 0;
-  for (const auto& [stage, s] : result.stats.timings) total += s;
-  std::printf("evaluations: %llu grid (%.2f%% of %llu dense) + %llu refinement, %.2f s\n",
-              static_cast<unsigned long long>(result.stats.evaluations),
-              100.0 * result.stats.evaluations / result.stats.dense_evaluations,
-              static_cast<unsigned long long>(result.stats.dense_evaluations),
-              static_cast<unsigned long long>(result.stats.refine_evaluations), total);
+  finish_mesh_command(*cmd, result.stats, &result.mesh, cancel);
   return 0;
 }
 

@@ -45,6 +45,30 @@ inline double tetra_volume(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
   return dot(a, cross(b, c)) / 6.0;
 }
 
+/// Adds each triangle's area-weighted normal (|n| = 2 * area) to its corners' float sums, in
+/// triangle order: `position(v)` gives corner v, `sum(v)` its sum or null (not summed here).
+/// One process and the ranks of a distributed run add in this same order, so they agree bit for
+/// bit.
+template <class Triangles, class PositionOf, class SumOf>
+void add_area_normals(const Triangles& triangles, const PositionOf& position, const SumOf& sum) {
+  for (const auto& t : triangles) {
+    const Vec3d a = to_vec3d(position(t[0]));
+    const Vec3d n = cross(to_vec3d(position(t[1])) - a, to_vec3d(position(t[2])) - a);
+    for (auto v : t)
+      if (std::array<float, 3>* s = sum(v))
+        for (int k = 0; k < 3; ++k) (*s)[k] += static_cast<float>(n[k]);
+  }
+}
+
+/// A sum of add_area_normals() made unit length; (0, 0, 1) where it has no direction.
+inline void normalize_sum(std::array<float, 3>& n) {
+  const double len = std::sqrt(double(n[0]) * n[0] + double(n[1]) * n[1] + double(n[2]) * n[2]);
+  if (len > 0 && std::isfinite(len))
+    n = {float(n[0] / len), float(n[1] / len), float(n[2] / len)};
+  else
+    n = {0, 0, 1};
+}
+
 /// The Morton code of a grid cell: the low 21 bits of x, y and z interleaved (x in bit 0). Cells
 /// close in space are mostly close along the curve.
 inline uint64_t morton_code(uint32_t x, uint32_t y, uint32_t z) {

@@ -190,21 +190,10 @@ std::vector<std::array<float, 3>> area_weighted_normals(const TriMesh& mesh) {
   // Summed in the output itself (float: a vertex has a few faces, and a unit normal needs no
   // more), serially in face order, so the result does not depend on threads.
   std::vector<std::array<float, 3>> normals(mesh.positions.size(), {0, 0, 0});
-  for (const auto& t : mesh.triangles) {
-    const Vec3d a = detail::to_vec3d(mesh.positions[t[0]]);
-    // |n| = 2 * area: area weighting.
-    const Vec3d n = detail::cross(detail::to_vec3d(mesh.positions[t[1]]) - a,
-                                  detail::to_vec3d(mesh.positions[t[2]]) - a);
-    for (auto v : t)
-      for (int k = 0; k < 3; ++k) normals[v][k] += static_cast<float>(n[k]);
-  }
-  for (auto& n : normals) {
-    const double len = std::sqrt(double(n[0]) * n[0] + double(n[1]) * n[1] + double(n[2]) * n[2]);
-    if (len > 0 && std::isfinite(len))
-      n = {float(n[0] / len), float(n[1] / len), float(n[2] / len)};
-    else
-      n = {0, 0, 1};
-  }
+  detail::add_area_normals(
+      mesh.triangles, [&](std::uint32_t v) -> const auto& { return mesh.positions[v]; },
+      [&](std::uint32_t v) { return &normals[v]; });
+  for (auto& n : normals) detail::normalize_sum(n);
   return normals;
 }
 

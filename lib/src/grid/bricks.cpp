@@ -12,7 +12,7 @@
 #include <mutex>
 #include <unordered_map>
 
-#include "base/comm.h"
+#include "base/distribution.h"
 #include "qjulia/base/error.h"
 
 namespace qjulia::detail {
@@ -569,6 +569,67 @@ std::vector<int> deal_planes(const std::vector<double>& weight, int lowest, int 
   return first;
 }
 
+// After sampling, the slabs are dealt again by what meshing them costs, now known exactly: the
+// surface cells of each plane of bricks (the vertices, the refinement and the plans follow
+// them). The bricks move to their new owners with their known values and cells; the slabs stay
+// contiguous in key order, so the ranks' bricks in rank order are still one process's.
+void redeal_for_meshing(BrickList& mine, Distribution& dist, int lowest_plane) {
+  Comm& comm = *dist.comm;
+  const std::size_t planes = static_cast<std::size_t>(dist.first.back() - lowest_plane);
+  std::vector<double> weight(planes, 0.0);
+  for (const auto& b : mine)
+    weight[static_cast<std::size_t>(b->at.x - lowest_plane)] +=
+        static_cast<double>(b->surface.count());
+  Packer own;
+  own.put_vector(weight);
+  std::vector<double> total(planes, 1.0);
+  for (const std::string& s : comm.allgather(own.data)) {
+    const auto w = Unpacker(s).get_vector<double>();
+    for (std::size_t i = 0; i < planes && i < w.size(); ++i) total[i] += w[i];
+  }
+  Distribution next = dist;
+  next.first = deal_planes(total, lowest_plane, comm.size());
+  std::vector<Packer> out(comm.size());
+  BrickList keep;
+  for (auto& b : mine) {
+    const int owner = next.rank_of(b->at.x);
+    if (owner == comm.rank()) {
+      keep.push_back(std::move(b));
+      continue;
+    }
+    Packer& p = out[owner];
+    p.put(b->key);
+    p.put(b->known);
+    p.put(b->surface);
+    p.put(b->visited);
+    std::vector<float> values;
+    values.reserve(b->known.count());
+    for (int q = 0; q < kBrickPoints; ++q)
+      if (b->known.test(q)) values.push_back(b->get(q));
+    p.put_vector(values);
+    b.reset();
+  }
+  std::vector<std::string> to(comm.size());
+  for (int r = 0; r < comm.size(); ++r) to[r] = std::move(out[r].data);
+  for (const std::string& bytes : comm.exchange(to)) {
+    Unpacker u(bytes);
+    while (!u.done()) {
+      auto b = std::make_unique<Brick>();
+      b->key = u.get<std::uint64_t>();
+      b->at = brick_of_key(b->key);
+      const auto known = u.get<Bits<kBrickPoints>>();
+      b->surface = u.get<Bits<kBrickCells>>();
+      b->visited = u.get<Bits<kBrickCells>>();
+      const auto values = u.get_vector<float>();
+      if (values.size() != known.count()) throw std::runtime_error("comm: a brick's values");
+      b->assign(known, values.data());
+      keep.push_back(std::move(b));
+    }
+  }
+  mine = std::move(keep);
+  dist.first = std::move(next.first);
+}
+
 }  // namespace
 
 BrickList BrickSampler::run() {
@@ -941,6 +1002,7 @@ BrickList BrickSampler::run() {
   for (auto& [key, br] : bricks)
     if (br->known.any() && owned(br->at.x)) out.push_back(std::move(br));
   bricks.clear();
+  if (dist && ranks > 1) redeal_for_meshing(out, *dist, lowest_plane);
   tbb::parallel_sort(out.begin(), out.end(),
                      [](const std::unique_ptr<Brick>& a, const std::unique_ptr<Brick>& b) {
                        return a->key < b->key;

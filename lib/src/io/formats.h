@@ -19,8 +19,18 @@ namespace qjulia::detail {
 /// What every writer receives: the checked mesh, unit normals for every vertex, colours
 /// clamped to [0, 1] (or empty), and the parameters pretty-printed (or empty).
 struct ExportData {
+  /// The normals written: the mesh's own when each is unit length to 1e-6 (no copy, so a mesh
+  /// from the pipeline is not duplicated), else `made`.
+  struct Normals {
+    const std::array<float, 3>* p = nullptr;
+    std::size_t n = 0;
+    const std::array<float, 3>& operator[](std::size_t i) const { return p[i]; }
+    const std::array<float, 3>* data() const { return p; }
+    std::size_t size() const { return n; }
+  };
   const TriMesh& mesh;
-  std::vector<std::array<float, 3>> normals;  ///< #V unit vectors
+  Normals normals;                                 ///< #V unit vectors
+  std::vector<std::array<float, 3>> made_normals;  ///< where `normals` points unless the mesh's
   std::vector<std::array<float, 3>> colors;   ///< empty or #V linear RGB in [0, 1]
   std::string params_json;                    ///< the parameters as pretty JSON, or empty
   std::vector<std::string> params_lines;      ///< params_json split at newlines
@@ -28,6 +38,26 @@ struct ExportData {
   std::string generator;                      ///< "qjulia VERSION"
   const CancelToken* cancel = nullptr;        ///< checked between blocks written
 };
+
+/// The ExportData of `mesh` for `path` (parameters checked and split, normals made unit length,
+/// colours clamped), as write_mesh() gives it to the writers.
+ExportData export_data(const std::string& path, const TriMesh& mesh, const ExportOptions& opts);
+
+/// The pieces of the binary PLY and STL files, for write_ply(), write_stl() and the ranks of a
+/// distributed run, which write the same bytes in parts.
+std::string ply_header(const ExportData& data, std::size_t vertices, std::size_t faces);
+inline std::size_t ply_vertex_record(const ExportData& data) {
+  return data.colors.empty() ? 24 : 27;
+}
+constexpr std::size_t kPlyFaceRecord = 13;
+/// The record of vertex v of data.mesh.
+void put_ply_vertex(char* p, const ExportData& data, std::size_t v);
+void put_ply_face(char* p, const std::array<std::uint32_t, 3>& t);
+/// The 80-byte header and the triangle count.
+std::string stl_header(const ExportData& data, std::uint32_t count);
+constexpr std::size_t kStlFaceRecord = 50;
+void put_stl_face(char* p, const std::array<float, 3>& a, const std::array<float, 3>& b,
+                  const std::array<float, 3>& c);
 
 void write_gltf(const std::string& path, const ExportData& data, bool binary);
 void write_obj(const std::string& path, const ExportData& data);

@@ -47,7 +47,7 @@ void ReadContext::charge(std::size_t count, std::size_t size, const std::string&
 
 namespace {
 
-/// Unit normals for every vertex: the given ones where they are finite and non-zero, otherwise
+/// Unit normals for every vertex: the given ones, normalized, where they are finite and non-zero, otherwise
 /// area-weighted face normals; (0, 0, 1) where nothing defines a direction.
 std::vector<std::array<float, 3>> unit_normals(const TriMesh& mesh) {
   const std::size_t nv = mesh.positions.size();
@@ -233,16 +233,21 @@ const char* extension_of(MeshFormat format) {
   return "";
 }
 
-void write_mesh(const std::string& path, const TriMesh& mesh, const ExportOptions& opts) {
-  const MeshFormat format = format_from_path(path);
-  validate_mesh(mesh, path, {/*faces=*/true});
-  throw_if_cancelled(opts.cancel);
-  if (opts.progress && !opts.progress(0.0)) throw Cancelled();
+namespace detail {
 
-  detail::ExportData data{
-      mesh, {}, {}, {}, {}, opts.unit, std::string("qjulia ") + QJULIA_VERSION, opts.cancel};
-  detail::set_params(path, opts.params_json, data);
-  data.normals = detail::unit_normals(mesh);
+ExportData export_data(const std::string& path, const TriMesh& mesh, const ExportOptions& opts) {
+  ExportData data{mesh, {}, {}, {}, {}, {}, opts.unit, std::string("qjulia ") + QJULIA_VERSION,
+                  opts.cancel};
+  set_params(path, opts.params_json, data);
+  const std::size_t nv = mesh.positions.size();
+  bool unit = mesh.normals.size() == nv;
+  for (std::size_t v = 0; unit && v < nv; ++v) {
+    const auto& g = mesh.normals[v];
+    const double len2 = double(g[0]) * g[0] + double(g[1]) * g[1] + double(g[2]) * g[2];
+    unit = std::abs(len2 - 1.0) < 1e-6;  // false for NaN too
+  }
+  if (!unit) data.made_normals = unit_normals(mesh);
+  data.normals = {unit ? mesh.normals.data() : data.made_normals.data(), nv};
   if (!mesh.colors.empty()) {
     data.colors.resize(mesh.colors.size());
     for (std::size_t v = 0; v < mesh.colors.size(); ++v)
@@ -251,6 +256,18 @@ void write_mesh(const std::string& path, const TriMesh& mesh, const ExportOption
         data.colors[v][i] = std::isfinite(c) ? std::clamp(c, 0.0f, 1.0f) : 0.0f;
       }
   }
+  return data;
+}
+
+}  // namespace detail
+
+void write_mesh(const std::string& path, const TriMesh& mesh, const ExportOptions& opts) {
+  const MeshFormat format = format_from_path(path);
+  validate_mesh(mesh, path, {/*faces=*/true});
+  throw_if_cancelled(opts.cancel);
+  if (opts.progress && !opts.progress(0.0)) throw Cancelled();
+
+  const detail::ExportData data = detail::export_data(path, mesh, opts);
 
   switch (format) {
     case MeshFormat::kGlb:

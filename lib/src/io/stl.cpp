@@ -12,8 +12,8 @@ static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
 namespace qjulia::detail {
 namespace {
 
-constexpr std::size_t kHeader = 84;  // 80 bytes of text, a 32-bit triangle count
-constexpr std::size_t kRecord = 50;  // normal, three corners, 16-bit attribute
+constexpr std::size_t kHeader = 84;              // 80 bytes of text, a 32-bit triangle count
+constexpr std::size_t kRecord = kStlFaceRecord;  // normal, three corners, 16-bit attribute
 
 /// Unit normal of triangle (a, b, c) by the cross product, or zero when it has no area.
 std::array<float, 3> face_normal(const std::array<float, 3>& a, const std::array<float, 3>& b,
@@ -29,27 +29,35 @@ std::array<float, 3> face_normal(const std::array<float, 3>& a, const std::array
 
 }  // namespace
 
+std::string stl_header(const ExportData& data, std::uint32_t count) {
+  // The header must not start with "solid" (readers would take the file for ASCII STL).
+  const std::string text = data.generator + " binary STL, unit: " +
+                           (data.unit.empty() ? std::string("model units") : data.unit);
+  std::string header(80, ' ');
+  std::memcpy(header.data(), text.data(), std::min(text.size(), header.size()));
+  header.append(reinterpret_cast<const char*>(&count), 4);
+  return header;
+}
+
+void put_stl_face(char* p, const std::array<float, 3>& a, const std::array<float, 3>& b,
+                  const std::array<float, 3>& c) {
+  const auto n = face_normal(a, b, c);
+  std::memcpy(p, n.data(), 12);
+  std::memcpy(p + 12, a.data(), 12);
+  std::memcpy(p + 24, b.data(), 12);
+  std::memcpy(p + 36, c.data(), 12);
+  p[48] = p[49] = 0;
+}
+
 void write_stl(const std::string& path, const ExportData& data) {
   const TriMesh& mesh = data.mesh;
-  // The header must not start with "solid" (readers would take the file for ASCII STL).
-  std::string text = data.generator + " binary STL, unit: " +
-                     (data.unit.empty() ? std::string("model units") : data.unit);
-  char header[80];
-  std::memset(header, ' ', sizeof header);
-  std::memcpy(header, text.data(), std::min(text.size(), sizeof header));
-  const uint32_t count = uint32_t(mesh.triangles.size());
-
   AtomicFile file(path, data.cancel);
   BufferedWriter out(file);
-  out.put(header, sizeof header);
-  out.put(reinterpret_cast<const char*>(&count), 4);
+  out.put(stl_header(data, uint32_t(mesh.triangles.size())));
   for (const auto& t : mesh.triangles) {
-    char* p = out.reserve(kRecord);
-    const auto n = face_normal(mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]);
-    std::memcpy(p, n.data(), 12);
-    for (int k = 0; k < 3; ++k) std::memcpy(p + 12 + 12 * k, mesh.positions[t[k]].data(), 12);
-    p[48] = p[49] = 0;
-    out.advance(kRecord);
+    put_stl_face(out.reserve(kStlFaceRecord), mesh.positions[t[0]], mesh.positions[t[1]],
+                 mesh.positions[t[2]]);
+    out.advance(kStlFaceRecord);
   }
   out.flush();
   file.commit();

@@ -91,8 +91,11 @@ RunEstimate estimate_at(const Params& params, const RunPlan& plan, const RunEsti
   const double final_vertices = 0.5 * final_faces;
   const bool colour = params.mesh.color != ColorMode::kNone;
 
-  double peak = kProcess + kPerCell * cells;
-  if (colour) peak += 24 * vertices;  // the colours, and their copy for the file
+  // A distributed run: each rank samples and meshes its share; a gathered mesh is whole on
+  // rank 0 (the largest rank, which the estimate is of).
+  const double share = plan.ranks > 1 && !plan.gathered ? 1.0 / plan.ranks : 1.0;
+  double peak = kProcess + kPerCell * cells * share;
+  if (colour) peak += 24 * vertices * share;  // the colours, and their copy for the file
   // The bricks grow as the crossing cells do.
   const double bricks =
       base.probe_cells ? static_cast<double>(base.probe_bricks) * cells / base.probe_cells : 0.0;

@@ -1,9 +1,13 @@
 #include "qjulia/pipeline/pipeline.h"
 
 #include <chrono>
+#include <cstring>
 #include <nlohmann/json.hpp>
 
+#include "base/distribution.h"
 #include "base/mesh_json.h"
+#include "grid/grid_impl.h"
+#include "io/part_writer.h"
 #include "pipeline/dust.h"
 #include "qjulia/base/error.h"
 #include "qjulia/base/memory.h"
@@ -11,7 +15,9 @@
 #include "qjulia/mesh/clean.h"
 #include "qjulia/mesh/decimate.h"
 #include "qjulia/mesh/print.h"
+#include "qjulia/pipeline/distributed.h"
 #include "qjulia/surface/extract.h"
+#include "surface/part.h"
 
 namespace qjulia {
 namespace {
@@ -45,85 +51,32 @@ class StageTimer {
   std::chrono::steady_clock::time_point begin_;
 };
 
-}  // namespace
-
-const char* version() { return QJULIA_VERSION; }
-
-PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
-  const Solid solid(params);  // validates and compiles, once for the whole run
-  PipelineResult result;
-  RunStats& stats = result.stats;
-  StageTimer timer(stats, opts.progress, opts.cancel);
-
-  // What the run will need, before it starts.
-  {
-    timer.start("estimate");
-    RunPlan plan;
-    plan.outputs = opts.outputs;
-    plan.dense = opts.dense;
-    plan.keep_grid = opts.keep_grid;
-    plan.preview = opts.preview;
-    plan.cancel = opts.cancel;
-    stats.estimate = estimate_run(params, plan);
-    const MemoryLimits limits = memory_limits(opts.max_memory);
-    stats.memory_limit = limits.effective();
-    stats.memory_limit_source = limits.describe();
-    timer.stop();
-    check_run(params, plan, stats.estimate, limits);
-  }
-
-  SampleOptions sopts;
-  sopts.dense = opts.dense;
-  sopts.cancel = opts.cancel;
-  sopts.progress = timer.start("sample");
-  SampledGrid grid = sample(solid, sopts);
-  timer.stop();
-  stats.evaluations = grid.evaluations();
+// The figures of the sampled grid (summed over the ranks of a distributed run).
+void record_grid(const SampledGrid& grid, Comm* comm, RunStats& stats) {
+  auto total = [&](std::uint64_t v) { return comm ? comm->sum(v) : v; };
+  stats.evaluations = total(grid.evaluations());
   stats.dense_evaluations = grid.dense_evaluations();
-  stats.crossing_cells = grid.crossing_cells();
+  stats.crossing_cells = total(grid.crossing_cells());
   stats.voxel_size = grid.voxel_size();
   stats.grid_points = grid.points();
+}
 
+// The extraction's options; starts its stage.
+ExtractOptions extract_options(const Params& params, const PipelineOptions& opts,
+                               StageTimer& timer) {
   ExtractOptions eopts;
   eopts.color = params.mesh.color;
   eopts.cancel = opts.cancel;
   eopts.progress = timer.start("extract");
-  ExtractStats estats;
-  TriMesh mesh =
-      opts.keep_grid ? extract(grid, eopts, &estats) : extract(std::move(grid), eopts, &estats);
-  timer.stop();
-  stats.refine_evaluations = estats.evaluations;
-  stats.unembedded_cells = estats.unembedded_cells;
+  return eopts;
+}
 
-  // Dust: the extracted mesh is closed, manifold and free of duplicate vertices, and its
-  // components are measured, so only the small ones go (the measures follow). A mesh whose
-  // bricks did not check out goes through the general clean().
-  CleanReport creport;
-  std::optional<MeshMeasure> known;  // the measures of `mesh` while they stay true
-  {
-    const ProgressFn progress = timer.start("clean");
-    const double voxel = stats.voxel_size;
-    if (estats.measure_valid) {
-      const double threshold = params.mesh.min_component
-                                   ? *params.mesh.min_component
-                                   : kDefaultDustVoxels * voxel * voxel * voxel;
-      creport = detail::remove_dust(mesh, estats, threshold);
-      known = std::move(estats.measure);
-      std::vector<std::uint32_t>().swap(estats.face_component);  // not needed any more
-    } else {
-      CleanOptions copts;
-      copts.min_component_volume = params.mesh.min_component;
-      copts.voxel_size = voxel;
-      copts.cancel = opts.cancel;
-      copts.progress = progress;
-      mesh = clean(mesh, copts, &creport);
-    }
-  }
-  timer.stop();
-  stats.clean = creport;
-
-  // Printing: scale first (the thickness is in millimetres), thicken, then decimate, so the face
-  // budget holds for the final mesh.
+// The stages after the dust, on the whole mesh: printing (scale first, the thickness is in
+// millimetres; thicken, then decimate, so the face budget holds for the final mesh), the
+// self-intersection check, the normals and the measures. `known`: the measures of `mesh`
+// while they stay true.
+void finish_mesh(const Params& params, const PipelineOptions& opts, TriMesh& mesh,
+                 std::optional<MeshMeasure>& known, RunStats& stats, StageTimer& timer) {
   if (params.print.size_mm) {
     timer.start("scale");
     stats.scale = scale_to_longest_side(mesh, *params.print.size_mm);
@@ -166,10 +119,282 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   timer.start("measure");
   stats.measure = known ? std::move(*known) : measure(mesh);
   timer.stop();
+}
+
+}  // namespace
+
+const char* version() { return QJULIA_VERSION; }
+
+PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
+  const Solid solid(params);  // validates and compiles, once for the whole run
+  PipelineResult result;
+  RunStats& stats = result.stats;
+  StageTimer timer(stats, opts.progress, opts.cancel);
+
+  // What the run will need, before it starts.
+  {
+    timer.start("estimate");
+    RunPlan plan;
+    plan.outputs = opts.outputs;
+    plan.dense = opts.dense;
+    plan.keep_grid = opts.keep_grid;
+    plan.preview = opts.preview;
+    plan.cancel = opts.cancel;
+    stats.estimate = estimate_run(params, plan);
+    const MemoryLimits limits = memory_limits(opts.max_memory);
+    stats.memory_limit = limits.effective();
+    stats.memory_limit_source = limits.describe();
+    timer.stop();
+    check_run(params, plan, stats.estimate, limits);
+  }
+
+  SampleOptions sopts;
+  sopts.dense = opts.dense;
+  sopts.cancel = opts.cancel;
+  sopts.progress = timer.start("sample");
+  SampledGrid grid = sample(solid, sopts);
+  timer.stop();
+  record_grid(grid, nullptr, stats);
+
+  const ExtractOptions eopts = extract_options(params, opts, timer);
+  ExtractStats estats;
+  TriMesh mesh =
+      opts.keep_grid ? extract(grid, eopts, &estats) : extract(std::move(grid), eopts, &estats);
+  timer.stop();
+  stats.refine_evaluations = estats.evaluations;
+  stats.unembedded_cells = estats.unembedded_cells;
+
+  // Dust: the extracted mesh is closed, manifold and free of duplicate vertices, and its
+  // components are measured, so only the small ones go (the measures follow). A mesh whose
+  // bricks did not check out goes through the general clean().
+  CleanReport creport;
+  std::optional<MeshMeasure> known;  // the measures of `mesh` while they stay true
+  {
+    const ProgressFn progress = timer.start("clean");
+    const double voxel = stats.voxel_size;
+    if (estats.measure_valid) {
+      const double threshold = params.mesh.min_component
+                                   ? *params.mesh.min_component
+                                   : kDefaultDustVoxels * voxel * voxel * voxel;
+      creport = detail::remove_dust(mesh, estats, threshold);
+      known = std::move(estats.measure);
+      std::vector<std::uint32_t>().swap(estats.face_component);  // not needed any more
+    } else {
+      CleanOptions copts;
+      copts.min_component_volume = params.mesh.min_component;
+      copts.voxel_size = voxel;
+      copts.cancel = opts.cancel;
+      copts.progress = progress;
+      mesh = clean(mesh, copts, &creport);
+    }
+  }
+  timer.stop();
+  stats.clean = creport;
+
+  finish_mesh(params, opts, mesh, known, stats, timer);
   stats.peak_rss_bytes = peak_rss_bytes();
   result.mesh = std::move(mesh);
   if (opts.keep_grid) result.grid = std::move(grid);
   return result;
+}
+
+// ------------------------------------------------------------------------- distributed runs
+
+bool stays_distributed(const Params& params, MeshFormat output, bool preview) {
+  return detail::part_writable(output) && !preview && !params.mesh.faces &&
+         !params.mesh.max_error && !params.print.size_mm && !params.print.min_thickness_mm &&
+         !params.print.check;
+}
+
+DistributedRun::DistributedRun() = default;
+DistributedRun::~DistributedRun() = default;
+DistributedRun::DistributedRun(DistributedRun&&) noexcept = default;
+DistributedRun& DistributedRun::operator=(DistributedRun&&) noexcept = default;
+
+namespace {
+
+// The whole mesh on rank 0 from the ranks' parts: positions in the whole mesh's numbering,
+// faces in rank order.
+TriMesh gather_mesh(TriMesh& mine, const detail::MeshPart& part, Comm& comm) {
+  Packer p;
+  p.put(part.edge_first);
+  p.put(part.edges);
+  p.put(part.centre_first);
+  p.put(part.vertices_total);
+  p.put_vector(mine.positions);
+  p.put_vector(mine.normals);
+  p.put_vector(mine.colors);
+  p.put_vector(mine.triangles);
+  mine = TriMesh();
+  std::vector<std::string> to(comm.size());
+  to[0] = std::move(p.data);
+  std::vector<std::string> from = comm.exchange(to);
+  TriMesh whole;
+  if (comm.rank() != 0) return whole;
+  for (std::string& bytes : from) {
+    Unpacker u(bytes);
+    const auto edge_first = u.get<std::uint64_t>(), edges = u.get<std::uint64_t>(),
+               centre_first = u.get<std::uint64_t>(), total = u.get<std::uint64_t>();
+    const auto positions = u.get_vector<std::array<float, 3>>();
+    const auto normals = u.get_vector<std::array<float, 3>>();
+    const auto colors = u.get_vector<std::array<float, 3>>();
+    const auto triangles = u.get_vector<std::array<std::uint32_t, 3>>();
+    whole.positions.resize(total);
+    whole.normals.resize(total);
+    if (!colors.empty()) whole.colors.resize(total);
+    for (std::size_t l = 0; l < positions.size(); ++l) {
+      const std::size_t v = l < edges ? edge_first + l : centre_first + (l - edges);
+      whole.positions[v] = positions[l];
+      whole.normals[v] = normals[l];
+      if (!colors.empty()) whole.colors[v] = colors[l];
+    }
+    whole.triangles.insert(whole.triangles.end(), triangles.begin(), triangles.end());
+    std::string().swap(bytes);
+  }
+  return whole;
+}
+
+}  // namespace
+
+DistributedRun run_pipeline_distributed(const Params& params, const PipelineOptions& opts,
+                                        Comm& comm) {
+  const auto started = std::chrono::steady_clock::now();
+  if (opts.keep_grid)
+    throw InvalidInput(
+        "--vdb is not available across ranks (the grid is not gathered); run "
+        "qjulia mesh on one machine for the grid");
+  const Solid solid(params);  // every rank validates alike
+  DistributedRun run;
+  RunStats& stats = run.result.stats;
+  StageTimer timer(stats, opts.progress, opts.cancel);
+  const bool gather = opts.outputs.empty() || opts.preview ||
+                      !stays_distributed(params, opts.outputs.front(), opts.preview) ||
+                      opts.outputs.size() > 1;
+  // The estimate on rank 0, for the largest rank (rank 0 when the mesh is gathered); the
+  // verdict is every rank's.
+  {
+    timer.start("estimate");
+    std::exception_ptr error;
+    if (comm.rank() == 0) {
+      try {
+        RunPlan plan;
+        plan.outputs = opts.outputs;
+        plan.dense = opts.dense;
+        plan.preview = opts.preview;
+        plan.ranks = comm.size();
+        plan.gathered = gather;
+        plan.cancel = opts.cancel;
+        stats.estimate = estimate_run(params, plan);
+        const MemoryLimits limits = memory_limits(opts.max_memory);
+        stats.memory_limit = limits.effective();
+        stats.memory_limit_source = limits.describe() + " (rank 0)";
+        check_run(params, plan, stats.estimate, limits);
+      } catch (...) {
+        error = std::current_exception();
+      }
+    }
+    timer.stop();
+    detail::agree_on(comm, error);
+  }
+
+  detail::Distribution dist;
+  dist.comm = &comm;
+  const double wait_before = comm.wait_seconds;
+  SampleOptions sopts;
+  sopts.dense = opts.dense;
+  sopts.cancel = opts.cancel;
+  sopts.distribution = &dist;
+  sopts.progress = timer.start("sample");
+  SampledGrid grid = sample(solid, sopts);
+  timer.stop();
+  RunStats::Rank me;
+  me.bricks = grid.impl().bricks.size();
+  me.evaluations = grid.evaluations();
+  record_grid(grid, &comm, stats);
+
+  const ExtractOptions eopts = extract_options(params, opts, timer);
+  ExtractStats estats;
+  auto part = std::make_unique<detail::MeshPart>();
+  TriMesh mesh = detail::extract_part(std::move(grid), eopts, estats, *part);
+  timer.stop();
+  me.evaluations += estats.evaluations;
+  stats.refine_evaluations = comm.sum(estats.evaluations);
+  stats.unembedded_cells = estats.unembedded_cells;
+
+  // Dust, across the ranks (the measures are rank 0's); a mesh whose bricks did not check out
+  // is gathered and cleaned by clean() on rank 0.
+  std::optional<MeshMeasure> known;
+  timer.start("clean");
+  const bool valid = estats.measure_valid;
+  if (valid) {
+    const double voxel = stats.voxel_size;
+    const double threshold = params.mesh.min_component ? *params.mesh.min_component
+                                                       : kDefaultDustVoxels * voxel * voxel * voxel;
+    stats.clean = detail::remove_dust_part(mesh, estats, threshold, *part);
+    if (comm.rank() == 0) known = std::move(estats.measure);
+  }
+  timer.stop();
+
+  // Every rank's figures, on rank 0.
+  me.bytes_sent = comm.bytes_sent;
+  me.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  me.busy_seconds = me.seconds - (comm.wait_seconds - wait_before);
+  {
+    const std::vector<std::string> all =
+        comm.allgather(std::string(reinterpret_cast<const char*>(&me), sizeof me));
+    for (const std::string& f : all) {
+      RunStats::Rank r;
+      std::memcpy(&r, f.data(), sizeof r);
+      stats.ranks.push_back(r);
+    }
+  }
+
+  if (!gather && valid) {
+    if (comm.rank() == 0) stats.measure = std::move(*known);
+    run.part_mesh_ = std::move(mesh);
+    run.part_ = std::move(part);
+    stats.peak_rss_bytes = peak_rss_bytes();
+    return run;
+  }
+  // The stages that need the whole mesh, on rank 0.
+  timer.start("gather");
+  TriMesh whole = gather_mesh(mesh, *part, comm);
+  timer.stop();
+  stats.gathered = true;
+  if (comm.rank() == 0) {
+    if (!valid) {
+      CleanOptions copts;
+      copts.min_component_volume = params.mesh.min_component;
+      copts.voxel_size = stats.voxel_size;
+      copts.cancel = opts.cancel;
+      copts.progress = timer.start("clean");
+      CleanReport creport;
+      whole = clean(whole, copts, &creport);
+      stats.clean = creport;
+      timer.stop();
+    }
+    finish_mesh(params, opts, whole, known, stats, timer);
+    run.result.mesh = std::move(whole);
+  }
+  stats.peak_rss_bytes = peak_rss_bytes();
+  return run;
+}
+
+void write_distributed(const std::string& path, const DistributedRun& run,
+                       const ExportOptions& opts, Comm& comm) {
+  if (!run.gathered()) {
+    detail::write_mesh_part(path, run.part_mesh_, *run.part_, opts);
+    return;
+  }
+  std::exception_ptr error;
+  if (comm.rank() == 0) {
+    try {
+      write_mesh(path, run.result.mesh, opts);
+    } catch (...) {
+      error = std::current_exception();
+    }
+  }
+  detail::agree_on(comm, error);
 }
 
 std::string stats_to_json(const RunStats& s, const Params& params) {
@@ -231,6 +456,25 @@ std::string stats_to_json(const RunStats& s, const Params& params) {
     if (d.self_intersections) j["decimate"]["self_intersections"] = *d.self_intersections;
   }
   if (s.self_intersections) j["self_intersections"] = *s.self_intersections;
+  if (!s.ranks.empty()) {
+    json ranks = json::array();
+    double busy_max = 0, busy_sum = 0;
+    for (std::size_t r = 0; r < s.ranks.size(); ++r) {
+      const RunStats::Rank& k = s.ranks[r];
+      ranks.push_back({{"rank", r},
+                       {"bricks", k.bricks},
+                       {"evaluations", k.evaluations},
+                       {"seconds", k.seconds},
+                       {"busy_seconds", k.busy_seconds},
+                       {"bytes_sent", k.bytes_sent}});
+      busy_max = std::max(busy_max, k.busy_seconds);
+      busy_sum += k.busy_seconds;
+    }
+    j["ranks"] = ranks;
+    // The slowest rank's work against the mean: 1 when balanced.
+    j["load_imbalance"] = busy_sum > 0 ? busy_max * s.ranks.size() / busy_sum : 1.0;
+    j["gathered"] = s.gathered;
+  }
   if (params.print.size_mm || params.print.min_thickness_mm || params.print.check) {
     json pr;
     pr["closed"] = m.closed;

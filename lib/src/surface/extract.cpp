@@ -10,29 +10,19 @@
 #include <numeric>
 #include <stdexcept>
 #include <unordered_map>
+#include <unordered_set>
 
+#include "base/distribution.h"
+#include "base/geometry.h"
+#include "base/union_find.h"
 #include "grid/grid_impl.h"
 #include "qjulia/base/error.h"
 #include "surface/brick_mesh.h"
 #include "surface/color.h"
+#include "surface/part.h"
 
 namespace qjulia {
 namespace {
-
-// A small union-find over indices.
-struct UnionFind {
-  std::vector<std::uint32_t> parent;
-  explicit UnionFind(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
-  std::uint32_t find(std::uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  }
-  void unite(std::uint32_t a, std::uint32_t b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
-};
 
 // What one brick contributes to the measures of the mesh.
 struct BrickMeasure {
@@ -47,7 +37,7 @@ struct BrickMeasure {
     std::array<double, 3> lo{HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
   };
   std::vector<Comp> comps;
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> links;  // (foreign vertex, local comp)
+  std::vector<std::array<std::uint32_t, 2>> links;  // (foreign vertex, local comp)
 };
 
 // The vertices and faces of one brick in the mesh: edge vertices [edge, edge + edges), centre
@@ -67,7 +57,8 @@ struct BrickRange {
 // `origin`, components within the brick, and the pairing of the half-edges inside the brick
 // (those on the brick's faces, `border`, pair with the neighbours'). Writes each face's local
 // component to face_comp.
-BrickMeasure measure_brick(const TriMesh& mesh, const BrickRange& r,
+template <class PositionOf>
+BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, const BrickRange& r,
                            const std::vector<std::array<std::uint32_t, 2>>* border,
                            const std::array<double, 3>& origin, std::uint32_t* face_comp) {
   BrickMeasure bm;
@@ -85,7 +76,7 @@ BrickMeasure measure_brick(const TriMesh& mesh, const BrickRange& r,
     return static_cast<std::uint32_t>(
         owned + (std::lower_bound(foreign.begin(), foreign.end(), v) - foreign.begin()));
   };
-  UnionFind uf(owned + foreign.size());
+  detail::UnionFind uf(owned + foreign.size());
   for (std::size_t f = 0; f < r.faces; ++f) {
     const std::uint32_t a = slot(tri[f][0]), b = slot(tri[f][1]), c = slot(tri[f][2]);
     uf.unite(a, b);
@@ -104,22 +95,21 @@ BrickMeasure measure_brick(const TriMesh& mesh, const BrickRange& r,
   for (std::size_t v = 0; v < owned; ++v) {
     BrickMeasure::Comp& c = bm.comps[comp_of[v]];
     ++c.vertices;
-    const auto& p = mesh.positions[v < r.edges ? r.edge + v : r.centre + (v - r.edges)];
+    const auto& p = position_of(v < r.edges ? r.edge + v : r.centre + (v - r.edges));
     for (int a = 0; a < 3; ++a) {
       c.lo[a] = std::min<double>(c.lo[a], p[a]);
       c.hi[a] = std::max<double>(c.hi[a], p[a]);
     }
   }
   for (std::size_t f = 0; f < foreign.size(); ++f)
-    bm.links.emplace_back(foreign[f], comp_of[owned + f]);
+    bm.links.push_back({foreign[f], comp_of[owned + f]});
   for (std::size_t f = 0; f < r.faces; ++f) {
     const auto& t = tri[f];
     const std::uint32_t c = comp_of[slot(t[0])];
     face_comp[f] = c;
     double p[3][3];
     for (int k = 0; k < 3; ++k)
-      for (int a = 0; a < 3; ++a)
-        p[k][a] = static_cast<double>(mesh.positions[t[k]][a]) - origin[a];
+      for (int a = 0; a < 3; ++a) p[k][a] = static_cast<double>(position_of(t[k])[a]) - origin[a];
     const double e1[3] = {p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
     const double e2[3] = {p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
     const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
@@ -190,15 +180,104 @@ BrickMeasure measure_brick(const TriMesh& mesh, const BrickRange& r,
   return bm;
 }
 
-// Meshes the bricks in two parallel passes and measures the mesh as it is made. Pass one: each
-// brick's vertices (numbered brick after brick in key order, then the centre vertices) and
-// counts. Pass two: each brick writes its triangles in place (corners on a neighbour's edges
-// found through the neighbour's sorted edge codes) and measures them; the half-edges on brick
-// faces pair with the neighbour's across; components merge through the shared vertices. With
-// `release`, each brick's values go once it is meshed, so the grid and the mesh are never both
-// whole in memory.
+// The components of the whole mesh from the bricks' local components (in whole-mesh order)
+// and the links between them: their totals, each local component's final index (components
+// by decreasing face count), and the measures that follow from them.
+struct Components {
+  std::vector<std::uint32_t> final_index;  // per local component
+  std::vector<ComponentMeasure> measures;
+  std::vector<std::array<double, 6>> boxes;
+  double volume = 0, area = 0;
+  std::array<double, 3> lo{0, 0, 0}, hi{0, 0, 0};
+};
+
+Components resolve_components(const std::vector<BrickMeasure::Comp>& comps,
+                              const std::vector<std::array<std::uint32_t, 2>>& links, bool closed) {
+  detail::UnionFind uf(comps.size());
+  for (const auto& l : links) uf.unite(l[0], l[1]);
+  struct Total {
+    ComponentMeasure c;
+    std::size_t vertices = 0;
+    std::array<double, 3> lo{HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+  };
+  std::vector<Total> totals;
+  std::vector<std::uint32_t> root_index(comps.size(), UINT32_MAX);
+  Components out;
+  out.final_index.resize(comps.size());
+  for (std::size_t i = 0; i < comps.size(); ++i) {
+    const std::uint32_t r = uf.find(static_cast<std::uint32_t>(i));
+    if (root_index[r] == UINT32_MAX) {
+      root_index[r] = static_cast<std::uint32_t>(totals.size());
+      totals.emplace_back();
+    }
+    out.final_index[i] = root_index[r];
+    Total& t = totals[root_index[r]];
+    const auto& lc = comps[i];
+    t.c.faces += lc.faces;
+    t.c.area += lc.area;
+    t.c.volume += lc.volume;
+    t.vertices += lc.vertices;
+    for (int a = 0; a < 3; ++a) {
+      t.lo[a] = std::min(t.lo[a], lc.lo[a]);
+      t.hi[a] = std::max(t.hi[a], lc.hi[a]);
+    }
+  }
+  // Closed by construction, which the pairing checked: then every vertex's faces form one fan
+  // (each grid edge's vertex lies in one loop of each cell around the edge, and the loops of
+  // neighbouring cells share their segments), Euler per component is V - F / 2, and the
+  // components are listed by decreasing face count.
+  std::vector<std::uint32_t> order(totals.size());
+  std::iota(order.begin(), order.end(), 0u);
+  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
+    return totals[a].c.faces > totals[b].c.faces;
+  });
+  std::vector<std::uint32_t> rank(order.size());
+  for (std::size_t r = 0; r < order.size(); ++r) rank[order[r]] = static_cast<std::uint32_t>(r);
+  for (auto& c : out.final_index) c = rank[c];
+  bool first_box = true;
+  for (std::uint32_t o : order) {
+    Total& t = totals[o];
+    t.c.closed = closed;
+    t.c.euler = static_cast<long long>(t.vertices) - static_cast<long long>(t.c.faces) / 2;
+    t.c.genus = t.c.closed ? (2 - t.c.euler) / 2 : -1;
+    out.volume += t.c.volume;
+    out.area += t.c.area;
+    for (int a = 0; a < 3; ++a) {
+      out.lo[a] = first_box ? t.lo[a] : std::min(out.lo[a], t.lo[a]);
+      out.hi[a] = first_box ? t.hi[a] : std::max(out.hi[a], t.hi[a]);
+    }
+    first_box = false;
+    out.boxes.push_back({t.lo[0], t.lo[1], t.lo[2], t.hi[0], t.hi[1], t.hi[2]});
+    out.measures.push_back(t.c);
+  }
+  return out;
+}
+
+// The ranks next to this one: `up` owns the plane of bricks after this rank's last, `down` the
+// one before its first (ranks without bricks are skipped).
+void find_neighbour_ranks(const detail::Distribution& d, detail::MeshPart& part) {
+  const int r = d.comm->rank();
+  const int x0 = d.first[r], x1 = d.first[r + 1];
+  part.comm = d.comm;
+  part.up = part.down = -1;
+  if (x0 == x1) return;
+  if (x1 < d.first.back()) part.up = d.rank_of(x1);
+  if (x0 > d.first.front()) part.down = d.rank_of(x0 - 1);
+}
+
+// Meshes the bricks in three parallel passes and measures the mesh as it is made. Pass one:
+// each brick's edge vertices. Pass two: each cell's plan (and the centre vertices). Then the
+// vertices are numbered (edge vertices brick after brick in key order, then the centre
+// vertices) and pass three writes each brick's triangles in place (corners on a neighbour's
+// edges found through the neighbour's sorted edge codes) and measures them; the half-edges on
+// brick faces pair with the neighbour's across; components merge through the shared vertices.
+// With `release`, each brick's values go once it is planned, so the grid and the mesh are
+// never both whole in memory. With `part` (a distributed run), this rank meshes its own bricks
+// and the up rank's first plane of bricks is known by its vertices only; the numbering, the
+// pairing across ranks, the components and the normals are agreed with the other ranks, so the
+// ranks' parts in rank order are the mesh of one process.
 TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptions& opts,
-                       ExtractStats* stats) {
+                       ExtractStats* stats, detail::MeshPart* part) {
   auto report = [&](double f) {
     if (opts.cancel && opts.cancel->requested()) throw Cancelled();
     if (opts.progress && !opts.progress(f)) throw Cancelled();
@@ -210,6 +289,7 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
         impl.bricks.end());
     malloc_trim(0);
   }
+  Comm* comm = part ? part->comm : nullptr;
   const std::size_t nb = impl.bricks.size();
   detail::BrickMeshOptions bopts;
   bopts.tolerance = opts.tolerance;
@@ -224,7 +304,7 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
                         const std::size_t k = done += r.size();
                         if ((k / 64) != ((k - r.size()) / 64)) {
                           std::lock_guard<std::mutex> lock(report_mutex);
-                          report(from + (to - from) * k / nb);
+                          report(from + (to - from) * k / std::max<std::size_t>(nb, 1));
                         }
                       });
   };
@@ -233,15 +313,53 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
   each_brick(0.0, 0.35, [&](std::size_t i) {
     verts[i] = detail::brick_vertices(*impl.bricks[i], *impl.solid, impl.geometry, bopts);
   });
+  // Across ranks: the vertices of this rank's first plane go to the down rank (its faces use
+  // them) and the keys of its last plane to the up rank (whose -x faces close against them).
+  std::vector<std::size_t> first_plane;      // own bricks in the first plane
+  std::unordered_set<std::uint64_t> below;   // the down rank's last plane
+  auto send_first_plane = [&](auto&& put) {  // to the down rank, one item per brick
+    Packer to_down;
+    for (std::size_t i : first_plane) put(to_down, i);
+    return std::move(to_down.data);
+  };
+  if (part) {
+    const detail::Distribution& d = *impl.distribution;
+    const int x0 = d.first[comm->rank()], x1 = d.first[comm->rank() + 1];
+    std::vector<std::uint64_t> last_plane;
+    for (std::size_t i = 0; i < nb; ++i) {
+      const int bx = detail::brick_of_key(verts[i].key).x;
+      if (bx == x0) first_plane.push_back(i);
+      if (bx == x1 - 1) last_plane.push_back(verts[i].key);
+    }
+    Packer to_up;
+    to_up.put_vector(last_plane);
+    auto [from_down, from_up] = part->swap(send_first_plane([&](Packer& p, std::size_t i) {
+                                             p.put(verts[i].key);
+                                             p.put_vector(verts[i].codes);
+                                             p.put_vector(verts[i].positions);
+                                           }),
+                                           std::move(to_up.data));
+    if (!from_down.empty())
+      for (std::uint64_t k : Unpacker(from_down).get_vector<std::uint64_t>()) below.insert(k);
+    Unpacker u(from_up);
+    while (!u.done()) {
+      detail::BrickVertices g;
+      g.key = u.get<std::uint64_t>();
+      g.codes = u.get_vector<std::uint16_t>();
+      g.positions = u.get_vector<std::array<float, 3>>();
+      verts.push_back(std::move(g));
+    }
+  }
+  const std::size_t nv = verts.size();  // own bricks, then the up rank's first plane
   std::unordered_map<std::uint64_t, std::size_t> index;
-  index.reserve(nb * 2);
-  for (std::size_t i = 0; i < nb; ++i) index.emplace(verts[i].key, i);
+  index.reserve(nv * 2);
+  for (std::size_t i = 0; i < nv; ++i) index.emplace(verts[i].key, i);
   auto neighbour = [&](std::size_t i, int dx, int dy, int dz) -> std::ptrdiff_t {
     const detail::BrickCoord at = detail::brick_of_key(verts[i].key);
     const auto it = index.find(detail::brick_key(at.x + dx, at.y + dy, at.z + dz));
     return it == index.end() ? -1 : static_cast<std::ptrdiff_t>(it->second);
   };
-  std::vector<BrickRange> range(nb);
+  std::vector<BrickRange> range(nv);
   // The vertices around brick i: its own and its +x, +y, +z neighbours'.
   auto around = [&](std::size_t i, bool positions) {
     detail::BrickNeighbours a;
@@ -267,44 +385,90 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
     impl.bricks.shrink_to_fit();
     malloc_trim(0);
   }
-  std::size_t edges_total = 0, centres_total = 0, faces_total = 0, unmended = 0;
+  // The numbering: this rank's edge vertices after the lower ranks', its centre vertices after
+  // every edge vertex and the lower ranks' centre vertices.
+  std::size_t edges_local = 0, centres_local = 0, faces_local = 0, unmended = 0;
   std::uint64_t evaluations = 0;
   for (std::size_t i = 0; i < nb; ++i) {
-    range[i].edge = edges_total;
     range[i].edges = verts[i].positions.size();
-    range[i].face = faces_total;
+    range[i].face = faces_local;
     range[i].faces = plans[i].triangles;
     range[i].centres = plans[i].centres.size();
-    edges_total += range[i].edges;
-    faces_total += range[i].faces;
-    centres_total += range[i].centres;
+    edges_local += range[i].edges;
+    faces_local += range[i].faces;
+    centres_local += range[i].centres;
     evaluations += verts[i].evaluations + plans[i].evaluations;
     unmended += plans[i].unmended;
   }
-  for (std::size_t i = 0, c = edges_total; i < nb; ++i) {
+  std::uint64_t edge_first = 0, edges_total = edges_local, centre_before = 0,
+                centres_total = centres_local, face_first = 0, faces_total = faces_local;
+  if (comm) {
+    edge_first = comm->exclusive_sum(edges_local);
+    edges_total = comm->sum(edges_local);
+    centre_before = comm->exclusive_sum(centres_local);
+    centres_total = comm->sum(centres_local);
+    face_first = comm->exclusive_sum(faces_local);
+    faces_total = comm->sum(faces_local);
+  }
+  const std::uint64_t centre_first = edges_total + centre_before;
+  for (std::size_t i = 0, e = edge_first, c = centre_first; i < nb; ++i) {
+    range[i].edge = e;
     range[i].centre = c;
+    e += range[i].edges;
     c += range[i].centres;
   }
   if (edges_total + centres_total > 0xffffffffu)
     throw TooLarge("the mesh has " + std::to_string(edges_total + centres_total) +
                    " vertices; 32-bit indices hold at most 4294967295");
   TriMesh mesh;
-  mesh.positions.resize(edges_total + centres_total);
-  mesh.triangles.resize(faces_total);
+  mesh.positions.resize(edges_local + centres_local);
+  mesh.triangles.resize(faces_local);
   for (std::size_t i = 0; i < nb; ++i) {
     std::copy(verts[i].positions.begin(), verts[i].positions.end(),
-              mesh.positions.begin() + range[i].edge);
+              mesh.positions.begin() + (range[i].edge - edge_first));
     std::copy(plans[i].centres.begin(), plans[i].centres.end(),
-              mesh.positions.begin() + range[i].centre);
+              mesh.positions.begin() + edges_local + (range[i].centre - centre_first));
     std::vector<std::array<float, 3>>().swap(verts[i].positions);
     std::vector<std::array<float, 3>>().swap(plans[i].centres);
   }
   malloc_trim(0);
+  if (part) {
+    part->edge_first = edge_first;
+    part->edges = edges_local;
+    part->centre_first = centre_first;
+    part->centres = centres_local;
+    part->face_first = face_first;
+    part->vertices_total = edges_total + centres_total;
+    part->faces_total = faces_total;
+    part->shared.clear();
+    for (std::size_t i : first_plane)
+      part->shared.push_back({range[i].edge - edge_first, range[i].edges, 0});
+    // The up rank's first plane: where its vertices are numbered.
+    const std::string from_up = part->swap(send_first_plane([&](Packer& p, std::size_t i) {
+                                             p.put<std::uint64_t>(range[i].edge);
+                                           }),
+                                           "")
+                                    .second;
+    Unpacker u(from_up);
+    part->ghosts.clear();
+    part->ghost_positions.clear();
+    for (std::size_t g = nb; g < nv; ++g) {
+      range[g].edge = u.get<std::uint64_t>();
+      range[g].edges = verts[g].positions.size();
+      part->ghosts.push_back({range[g].edge, range[g].edges, part->ghost_positions.size()});
+      part->ghost_positions.insert(part->ghost_positions.end(), verts[g].positions.begin(),
+                                   verts[g].positions.end());
+      std::vector<std::array<float, 3>>().swap(verts[g].positions);
+    }
+  }
+  auto position_of = [&](std::uint64_t v) -> const std::array<float, 3>& {
+    return part ? part->position(mesh, v) : mesh.positions[v];
+  };
   // Pass three: the triangles, with the measures of each brick.
   const std::array<double, 3> origin = impl.geometry.origin;
-  std::vector<detail::BrickFaces> faces(nb);
+  std::vector<detail::BrickFaces> faces(nv);
   std::vector<BrickMeasure> bm(nb);
-  std::vector<std::uint32_t> face_component(faces_total);
+  std::vector<std::uint32_t> face_component(faces_local);
   each_brick(0.5, 0.9, [&](std::size_t i) {
     detail::MeshTarget target;
     target.triangles = mesh.triangles.data();
@@ -313,9 +477,31 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
     target.around = around(i, false);
     faces[i] = detail::brick_triangles(plans[i], target);
     std::vector<std::uint32_t>().swap(plans[i].cells);
-    bm[i] = measure_brick(mesh, range[i], faces[i].border, origin,
+    bm[i] = measure_brick(mesh, position_of, range[i], faces[i].border, origin,
                           face_component.data() + range[i].face);
   });
+  // The components of this rank's bricks, numbered after the lower ranks'.
+  std::vector<std::size_t> comp_first(nv + 1, 0);
+  for (std::size_t i = 0; i < nb; ++i) comp_first[i + 1] = comp_first[i] + bm[i].comps.size();
+  const std::uint64_t comp_before = comm ? comm->exclusive_sum(comp_first[nb]) : 0;
+  // The up rank's first plane: its -x border and the components of its vertices.
+  std::vector<std::uint64_t> ghost_comp_first(nv, 0);
+  std::vector<std::vector<std::uint32_t>> ghost_owned_comp(nv);
+  if (part) {
+    const std::string from_up = part->swap(send_first_plane([&](Packer& p, std::size_t i) {
+                                             p.put_vector(faces[i].border[0]);
+                                             p.put<std::uint64_t>(comp_before + comp_first[i]);
+                                             p.put_vector(bm[i].owned_comp);
+                                           }),
+                                           "")
+                                    .second;
+    Unpacker u(from_up);
+    for (std::size_t g = nb; g < nv; ++g) {
+      faces[g].border[0] = u.get_vector<std::array<std::uint32_t, 2>>();
+      ghost_comp_first[g] = u.get<std::uint64_t>();
+      ghost_owned_comp[g] = u.get_vector<std::uint32_t>();
+    }
+  }
   // The half-edges on brick faces: each brick's +x, +y, +z lists against the neighbour's -x,
   // -y, -z lists, reversed.
   std::vector<std::size_t> border_edges(nb, 0), border_problems(nb, 0);
@@ -347,120 +533,142 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
       border_problems[i] += down.size() - std::min(j, down.size());
     }
     // A -x, -y, -z face with no neighbour leaves its border open.
-    for (int axis = 0; axis < 3; ++axis)
-      if (neighbour(i, -(axis == 0), -(axis == 1), -(axis == 2)) < 0)
-        border_problems[i] += faces[i].border[2 * axis].size();
-  });
-  // Components across bricks: local components joined through the vertices they share.
-  std::vector<std::size_t> comp_first(nb + 1, 0);
-  for (std::size_t i = 0; i < nb; ++i) comp_first[i + 1] = comp_first[i] + bm[i].comps.size();
-  UnionFind uf(comp_first[nb]);
-  // The owner of a shared vertex: the brick whose edge vertices hold it (centre vertices are
-  // never shared).
-  std::vector<std::size_t> edge_first(nb);
-  for (std::size_t i = 0; i < nb; ++i) edge_first[i] = range[i].edge;
-  for (std::size_t i = 0; i < nb; ++i)
-    for (const auto& [v, c] : bm[i].links) {
-      const std::size_t owner =
-          std::upper_bound(edge_first.begin(), edge_first.end(), v) - edge_first.begin() - 1;
-      uf.unite(static_cast<std::uint32_t>(comp_first[i] + c),
-               static_cast<std::uint32_t>(comp_first[owner] +
-                                          bm[owner].owned_comp[v - range[owner].edge]));
+    for (int axis = 0; axis < 3; ++axis) {
+      if (neighbour(i, -(axis == 0), -(axis == 1), -(axis == 2)) >= 0) continue;
+      if (axis == 0) {
+        const detail::BrickCoord at = detail::brick_of_key(verts[i].key);
+        if (below.count(detail::brick_key(at.x - 1, at.y, at.z))) continue;
+      }
+      border_problems[i] += faces[i].border[2 * axis].size();
     }
+  });
   faces.clear();
   faces.shrink_to_fit();
+  // The links between local components (whole-mesh numbers): through the vertices they share.
+  // The owner of a shared vertex is the brick whose edge vertices hold it (centre vertices are
+  // never shared); the bricks are in the order of their edge vertices.
+  std::vector<std::uint64_t> edge_start(nv);
+  for (std::size_t i = 0; i < nv; ++i) edge_start[i] = range[i].edge;
+  std::vector<std::array<std::uint32_t, 2>> links;
+  std::vector<BrickMeasure::Comp> comps;
+  comps.reserve(comp_first[nb]);
   MeshMeasure m;
   std::size_t problems = 0, degenerate = 0;
-  std::vector<std::uint32_t> root_index(comp_first[nb], UINT32_MAX);
-  struct Total {
-    ComponentMeasure c;
-    std::size_t vertices = 0;
-    std::array<double, 3> lo{HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
-    std::uint32_t order = 0;  // first vertex, for a stable order
-  };
-  std::vector<Total> totals;
   for (std::size_t i = 0; i < nb; ++i) {
+    for (const auto& [v, c] : bm[i].links) {
+      const std::size_t owner =
+          std::upper_bound(edge_start.begin(), edge_start.end(), v) - edge_start.begin() - 1;
+      const std::uint64_t other =
+          owner < nb ? comp_before + comp_first[owner] + bm[owner].owned_comp[v - range[owner].edge]
+                     : ghost_comp_first[owner] + ghost_owned_comp[owner][v - range[owner].edge];
+      links.push_back({static_cast<std::uint32_t>(comp_before + comp_first[i] + c),
+                       static_cast<std::uint32_t>(other)});
+    }
+    comps.insert(comps.end(), bm[i].comps.begin(), bm[i].comps.end());
     m.edges += bm[i].edges + border_edges[i];
     problems += bm[i].problems + border_problems[i];
     degenerate += bm[i].degenerate;
-    for (std::size_t c = 0; c < bm[i].comps.size(); ++c) {
-      const std::uint32_t r = uf.find(static_cast<std::uint32_t>(comp_first[i] + c));
-      if (root_index[r] == UINT32_MAX) {
-        root_index[r] = static_cast<std::uint32_t>(totals.size());
-        totals.emplace_back();
-        totals.back().order = static_cast<std::uint32_t>(totals.size() - 1);
-      }
-      Total& t = totals[root_index[r]];
-      const auto& lc = bm[i].comps[c];
-      t.c.faces += lc.faces;
-      t.c.area += lc.area;
-      t.c.volume += lc.volume;
-      t.vertices += lc.vertices;
-      for (int a = 0; a < 3; ++a) {
-        t.lo[a] = std::min(t.lo[a], lc.lo[a]);
-        t.hi[a] = std::max(t.hi[a], lc.hi[a]);
-      }
-    }
   }
-  report(0.95);
-  // Each face's component: its brick's local component, merged.
-  tbb::parallel_for(std::size_t{0}, nb, [&](std::size_t i) {
-    for (std::size_t f = range[i].face; f < range[i].face + range[i].faces; ++f)
-      face_component[f] =
-          root_index[uf.find(static_cast<std::uint32_t>(comp_first[i] + face_component[f]))];
-  });
   verts.clear();
   verts.shrink_to_fit();
   bm.clear();
   bm.shrink_to_fit();
-  // The measures. Closed by construction, which the pairing checked: then every vertex's
-  // faces form one fan (each grid edge's vertex lies in one loop of each cell around the edge,
-  // and the loops of neighbouring cells share their segments), Euler per component is
-  // V - F / 2, and the components are listed by decreasing face count.
-  m.vertices = mesh.positions.size();
-  m.faces = mesh.triangles.size();
+  if (comm) {
+    m.edges = comm->sum(m.edges);
+    problems = comm->sum(problems);
+    degenerate = comm->sum(degenerate);
+  }
+  const bool closed = problems == 0;
+  // The components, resolved where every rank's are known: rank 0, which sends each rank the
+  // final index of its local components.
+  Components resolved;
+  std::vector<std::uint32_t> final_index;
+  if (!comm) {
+    resolved = resolve_components(comps, links, closed);
+    final_index = std::move(resolved.final_index);
+  } else {
+    Packer mine;
+    mine.put_vector(comps);
+    mine.put_vector(links);
+    std::vector<std::string> to(comm->size());
+    to[0] = std::move(mine.data);
+    const std::vector<std::string> from = comm->exchange(to);
+    std::vector<std::string> back(comm->size());
+    if (comm->rank() == 0) {
+      std::vector<BrickMeasure::Comp> all;
+      std::vector<std::array<std::uint32_t, 2>> all_links;
+      std::vector<std::size_t> count(comm->size());
+      for (int r = 0; r < comm->size(); ++r) {
+        Unpacker u(from[r]);
+        const auto c = u.get_vector<BrickMeasure::Comp>();
+        const auto l = u.get_vector<std::array<std::uint32_t, 2>>();
+        count[r] = c.size();
+        all.insert(all.end(), c.begin(), c.end());
+        all_links.insert(all_links.end(), l.begin(), l.end());
+      }
+      resolved = resolve_components(all, all_links, closed);
+      for (int r = 0, at = 0; r < comm->size(); at += static_cast<int>(count[r]), ++r) {
+        Packer p;
+        p.put_vector(std::vector<std::uint32_t>(resolved.final_index.begin() + at,
+                                                resolved.final_index.begin() + at + count[r]));
+        back[r] = std::move(p.data);
+      }
+    }
+    final_index = Unpacker(comm->exchange(back)[0]).get_vector<std::uint32_t>();
+  }
+  report(0.95);
+  // Each face's component: its brick's local component, resolved.
+  tbb::parallel_for(std::size_t{0}, nb, [&](std::size_t i) {
+    for (std::size_t f = range[i].face; f < range[i].face + range[i].faces; ++f)
+      face_component[f] = final_index[comp_first[i] + face_component[f]];
+  });
+  m.vertices = edges_total + centres_total;
+  m.faces = faces_total;
   m.degenerate_faces = degenerate;
   m.boundary_edges = problems;
-  m.closed = problems == 0;
-  m.manifold = problems == 0;
-  m.oriented = problems == 0;
-  std::vector<std::uint32_t> order(totals.size());
-  std::iota(order.begin(), order.end(), 0u);
-  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
-    return totals[a].c.faces > totals[b].c.faces;
-  });
-  std::vector<std::uint32_t> rank(order.size());
-  for (std::size_t r = 0; r < order.size(); ++r) rank[order[r]] = static_cast<std::uint32_t>(r);
-  for (auto& c : face_component) c = rank[c];
-  std::vector<std::array<double, 6>> component_bbox;
-  bool first_box = true;
-  for (std::uint32_t o : order) {
-    Total& t = totals[o];
-    t.c.closed = m.closed;
-    t.c.euler = static_cast<long long>(t.vertices) - static_cast<long long>(t.c.faces) / 2;
-    t.c.genus = t.c.closed ? (2 - t.c.euler) / 2 : -1;
-    m.volume += t.c.volume;
-    m.area += t.c.area;
-    for (int a = 0; a < 3; ++a) {
-      m.bbox_min[a] = first_box ? t.lo[a] : std::min(m.bbox_min[a], t.lo[a]);
-      m.bbox_max[a] = first_box ? t.hi[a] : std::max(m.bbox_max[a], t.hi[a]);
-    }
-    first_box = false;
-    component_bbox.push_back({t.lo[0], t.lo[1], t.lo[2], t.hi[0], t.hi[1], t.hi[2]});
-    m.components.push_back(t.c);
-  }
+  m.closed = m.manifold = m.oriented = closed;
+  m.volume = resolved.volume;
+  m.area = resolved.area;
+  m.bbox_min = resolved.lo;
+  m.bbox_max = resolved.hi;
+  m.components = std::move(resolved.measures);
   m.euler = static_cast<long long>(m.vertices) - static_cast<long long>(m.edges) +
             static_cast<long long>(m.faces);
-  compute_normals(mesh);
+  if (!part) {
+    compute_normals(mesh);
+  } else {
+    // The sums of this rank's faces at the up rank's vertices go to the up rank, which adds its
+    // own faces to them: the order of one process (the lower rank's faces come first).
+    std::vector<std::array<float, 3>> ghost_sums(part->ghost_positions.size(), {0, 0, 0});
+    detail::add_area_normals(mesh.triangles, position_of, [&](std::uint64_t v) {
+      return part->local(v) == UINT64_MAX ? &ghost_sums[part->ghost(v)] : nullptr;
+    });
+    Packer to_up;
+    to_up.put_vector(ghost_sums);
+    const std::string from_down = part->swap("", std::move(to_up.data)).first;
+    mesh.normals.assign(mesh.positions.size(), {0, 0, 0});
+    if (!from_down.empty()) {
+      const auto sums = Unpacker(from_down).get_vector<std::array<float, 3>>();
+      std::size_t at = 0;
+      for (const detail::VertexRun& run : part->shared)
+        for (std::uint64_t k = 0; k < run.count && at < sums.size(); ++k)
+          mesh.normals[run.first + k] = sums[at++];
+    }
+    detail::add_area_normals(mesh.triangles, position_of, [&](std::uint64_t v) {
+      const std::uint64_t l = part->local(v);
+      return l == UINT64_MAX ? nullptr : &mesh.normals[l];
+    });
+    for (auto& n : mesh.normals) detail::normalize_sum(n);
+  }
   if (opts.color != ColorMode::kNone)
     evaluations += detail::colorize(mesh, *impl.solid, impl.geometry.voxel, opts.color);
   if (stats) {
     stats->evaluations = evaluations;
-    stats->unembedded_cells = unmended;
-    stats->measure_valid = m.closed && degenerate == 0;
+    stats->unembedded_cells = comm ? comm->sum(unmended) : unmended;
+    stats->measure_valid = closed && degenerate == 0;
     stats->measure = std::move(m);
     stats->face_component = std::move(face_component);
-    stats->component_bbox = std::move(component_bbox);
+    stats->component_bbox = std::move(resolved.boxes);
   }
   report(1.0);
   return mesh;
@@ -469,13 +677,47 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
 }  // namespace
 
 TriMesh extract(const SampledGrid& grid, const ExtractOptions& opts, ExtractStats* stats) {
-  return extract_bricks(const_cast<SampledGrid::Impl&>(grid.impl()), false, opts, stats);
+  return extract_bricks(const_cast<SampledGrid::Impl&>(grid.impl()), false, opts, stats, nullptr);
 }
 
 TriMesh extract(SampledGrid&& grid, const ExtractOptions& opts, ExtractStats* stats) {
-  TriMesh mesh = extract_bricks(grid.impl(), true, opts, stats);
+  TriMesh mesh = extract_bricks(grid.impl(), true, opts, stats, nullptr);
   malloc_trim(0);  // the many small blocks of the bricks' passes, free now
   return mesh;
 }
+
+namespace detail {
+
+std::size_t MeshPart::ghost(std::uint64_t v) const {
+  auto it = std::upper_bound(ghosts.begin(), ghosts.end(), v,
+                             [](std::uint64_t x, const VertexRun& r) { return x < r.first; });
+  if (it != ghosts.begin()) {
+    const VertexRun& r = *(it - 1);
+    if (v - r.first < r.count) return r.at + (v - r.first);
+  }
+  throw std::logic_error("vertex " + std::to_string(v) + " is neither owned nor a ghost");
+}
+
+std::pair<std::string, std::string> MeshPart::swap(std::string to_down, std::string to_up) const {
+  std::vector<std::string> to(comm->size());
+  if (down >= 0) to[down] = std::move(to_down);
+  if (up >= 0) to[up] = std::move(to_up);
+  std::vector<std::string> from = comm->exchange(to);
+  return {down >= 0 ? std::move(from[down]) : std::string(),
+          up >= 0 ? std::move(from[up]) : std::string()};
+}
+
+TriMesh extract_part(SampledGrid&& grid, const ExtractOptions& opts, ExtractStats& stats,
+                     MeshPart& part) {
+  SampledGrid::Impl& impl = grid.impl();
+  if (!impl.distribution || !impl.distribution->comm)
+    throw std::logic_error("extract_part: the grid was not sampled with a distribution");
+  find_neighbour_ranks(*impl.distribution, part);
+  TriMesh mesh = extract_bricks(impl, true, opts, &stats, &part);
+  malloc_trim(0);
+  return mesh;
+}
+
+}  // namespace detail
 
 }  // namespace qjulia

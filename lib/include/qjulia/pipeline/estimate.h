@@ -20,6 +20,8 @@ struct RunPlan {
   bool dense = false;               ///< every grid point evaluated
   bool keep_grid = false;           ///< the grid kept and written (--vdb)
   bool preview = false;             ///< a picture rendered
+  int ranks = 1;                    ///< processes of a distributed run
+  bool gathered = false;            ///< ... whose mesh is gathered to rank 0
   const CancelToken* cancel = nullptr;
 };
 
@@ -34,7 +36,7 @@ struct RunEstimate {
   std::uint64_t faces = 0;         ///< faces of the extracted mesh
   std::uint64_t vertices = 0;      ///< and vertices
   std::uint64_t final_faces = 0;   ///< faces written (after decimation)
-  std::size_t peak_bytes = 0;      ///< peak resident memory of the whole run
+  std::size_t peak_bytes = 0;      ///< peak resident memory of the run (of its largest rank)
   std::size_t largest_output = 0;  ///< bytes of the largest output file
 };
 

@@ -66,6 +66,16 @@ struct RunStats {
   std::string memory_limit_source;  ///< MemoryLimits::describe()
   double scale = 1.0;               ///< factor applied by print.size_mm
   std::string unit;                 ///< "mm" when scaled for printing
+  /// One rank of a distributed run (run_pipeline_distributed()).
+  struct Rank {
+    std::uint64_t bricks = 0;       ///< bricks it sampled
+    std::uint64_t evaluations = 0;  ///< classifier calls, sampling and refinement
+    std::uint64_t bytes_sent = 0;   ///< to other ranks
+    double seconds = 0;             ///< from the start to the mesh's parts, wall clock
+    double busy_seconds = 0;        ///< of which not waiting for other ranks
+  };
+  std::vector<Rank> ranks;  ///< by rank; empty in a run of one process
+  bool gathered = false;    ///< a distributed run's mesh was gathered to rank 0
 };
 
 /// The result of run_pipeline().

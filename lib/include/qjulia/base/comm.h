@@ -1,7 +1,8 @@
 #pragma once
-// The processes of a distributed run, as the stages see them: a rank, a size, and a few
-// collective operations on byte buffers. The library holds no transport; qjulia-mpi implements
-// this with MPI. A run of one process has no Comm at all.
+/// @file comm.h
+/// The processes of a distributed run, as the stages see them: a rank, a size, a few collective
+/// operations on byte buffers, and one shared output file. The library holds no transport:
+/// qjulia-mpi implements this with MPI (tests with threads). A run of one process has no Comm.
 #include <cstdint>
 #include <cstring>
 #include <stdexcept>
@@ -9,7 +10,7 @@
 #include <type_traits>
 #include <vector>
 
-namespace qjulia::detail {
+namespace qjulia {
 
 class Comm {
  public:
@@ -29,8 +30,18 @@ class Comm {
   /// Rank 0's `data` on every rank. Collective.
   virtual void broadcast(std::string& data) = 0;
 
+  /// Opens (creates, truncates) `path` for writing by every rank; false on this rank's failure
+  /// (the callers agree through any()). Collective.
+  virtual bool file_open(const std::string& path) = 0;
+  /// Writes `n` bytes at `offset` of the open file; false on failure. Not collective.
+  virtual bool file_write_at(std::uint64_t offset, const char* data, std::size_t n) = 0;
+  /// Closes the file (flushed to the system); false on this rank's failure. Collective.
+  virtual bool file_close() = 0;
+
   /// Bytes this rank has sent to other ranks.
   std::uint64_t bytes_sent = 0;
+  /// Seconds this rank has spent in collective operations (waiting for the others, mostly).
+  double wait_seconds = 0;
 };
 
 /// Appends plain values to a byte buffer.
@@ -84,22 +95,4 @@ class Unpacker {
   std::size_t at_ = 0;
 };
 
-/// How the bricks are dealt to the ranks: rank r owns the bricks whose x coordinate is in
-/// [first[r], first[r + 1]) (contiguous slabs in the bricks' key order, so the mesh of the
-/// ranks in rank order is the mesh of one process), chosen by the sampler from the estimated
-/// cost of each plane of bricks.
-struct Distribution {
-  Comm* comm = nullptr;
-  std::vector<int> first;  ///< size() + 1 entries once set
-  int rank_of(int bx) const {
-    int r = 0;
-    while (r + 1 < static_cast<int>(first.size()) - 1 && bx >= first[r + 1]) ++r;
-    return r;
-  }
-  bool owns(int bx) const {
-    const int r = comm->rank();
-    return bx >= first[r] && bx < first[r + 1];
-  }
-};
-
-}  // namespace qjulia::detail
+}  // namespace qjulia

@@ -1,0 +1,44 @@
+#pragma once
+// The `mesh` command's arguments and its files besides the mesh, shared by `qjulia mesh` and
+// `qjulia-mpi mesh` (the same options, the same outputs).
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "cli.h"
+#include "files.h"
+#include "qjulia/base/mesh.h"
+#include "qjulia/field/params.h"
+#include "qjulia/pipeline/pipeline.h"
+#include "qjulia/render/render.h"
+
+namespace qjulia::cli {
+
+/// What `mesh` was asked for, parsed and checked before any work: every number in its range,
+/// the output format known, every output claimed (not an input, not a directory or device).
+struct MeshCommand {
+  ParsedArgs args;
+  std::string out;
+  Params params;
+  std::string params_json;
+  std::optional<std::string> preview, stats_path, vdb;
+  RenderOptions preview_options;
+  PipelineOptions pipeline;  ///< without progress
+  std::unique_ptr<ThreadLimit> threads;
+  OutputFiles written;  ///< removed again unless committed
+};
+
+/// Parses the arguments of `mesh`; null when --help was asked for (and printed). `program`
+/// names the command in the help ("qjulia mesh").
+/// @throws InvalidInput (exit 2).
+std::unique_ptr<MeshCommand> parse_mesh_command(const std::vector<std::string>& tokens,
+                                                const CancelToken& cancel,
+                                                const std::string& program);
+
+/// After the mesh was written: the STL sidecar with the parameters, the preview (of `mesh`),
+/// the stats file; commits every output and prints the summary. `extra` is printed after it.
+void finish_mesh_command(MeshCommand& cmd, RunStats& stats, const TriMesh* mesh,
+                         const CancelToken& cancel);
+
+}  // namespace qjulia::cli
