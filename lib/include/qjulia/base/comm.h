@@ -57,9 +57,11 @@ class Packer {
   void put_vector(const std::vector<T>& v) {
     static_assert(std::is_trivially_copyable_v<T>);
     put<std::uint64_t>(v.size());
-    data.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+    if (!v.empty()) data.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
   }
-  void put_bytes(const void* p, std::size_t n) { data.append(static_cast<const char*>(p), n); }
+  void put_bytes(const void* p, std::size_t n) {
+    if (n > 0) data.append(static_cast<const char*>(p), n);
+  }
   std::string data;
 };
 
@@ -88,7 +90,7 @@ class Unpacker {
  private:
   void take(void* p, std::size_t n) {
     if (n > data_.size() - at_) throw std::runtime_error("comm: truncated message");
-    std::memcpy(p, data_.data() + at_, n);
+    if (n > 0) std::memcpy(p, data_.data() + at_, n);
     at_ += n;
   }
   const std::string& data_;
