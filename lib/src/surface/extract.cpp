@@ -181,8 +181,8 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
 }
 
 // The components of the whole mesh from the bricks' local components (in whole-mesh order)
-// and the links between them: their totals, each local component's final index (components
-// by decreasing face count), and the measures that follow from them.
+// joined in `uf` through the vertices they share: their totals, each local component's final index
+// (components by decreasing face count), and the measures that follow from them.
 struct Components {
   std::vector<std::uint32_t> final_index;  // per local component
   std::vector<ComponentMeasure> measures;
@@ -191,10 +191,8 @@ struct Components {
   std::array<double, 3> lo{0, 0, 0}, hi{0, 0, 0};
 };
 
-Components resolve_components(const std::vector<BrickMeasure::Comp>& comps,
-                              const std::vector<std::array<std::uint32_t, 2>>& links, bool closed) {
-  detail::UnionFind uf(comps.size());
-  for (const auto& l : links) uf.unite(l[0], l[1]);
+Components resolve_components(const std::vector<BrickMeasure::Comp>& comps, detail::UnionFind& uf,
+                              bool closed) {
   struct Total {
     ComponentMeasure c;
     std::size_t vertices = 0;
@@ -480,6 +478,9 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
     bm[i] = measure_brick(mesh, position_of, range[i], faces[i].border, origin,
                           face_component.data() + range[i].face);
   });
+  plans.clear();
+  plans.shrink_to_fit();
+  malloc_trim(0);  // the plans' cells, freed brick by brick
   // The components of this rank's bricks, numbered after the lower ranks'.
   std::vector<std::size_t> comp_first(nv + 1, 0);
   for (std::size_t i = 0; i < nb; ++i) comp_first[i + 1] = comp_first[i] + bm[i].comps.size();
@@ -544,14 +545,24 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
   });
   faces.clear();
   faces.shrink_to_fit();
+  malloc_trim(0);  // the many small border lists
   // The links between local components (whole-mesh numbers): through the vertices they share.
   // The owner of a shared vertex is the brick whose edge vertices hold it (centre vertices are
   // never shared); the bricks are in the order of their edge vertices.
+  verts.clear();  // the keys and codes: nothing looks for a neighbour any more
+  verts.shrink_to_fit();
   std::vector<std::uint64_t> edge_start(nv);
   for (std::size_t i = 0; i < nv; ++i) edge_start[i] = range[i].edge;
   std::vector<std::array<std::uint32_t, 2>> links;
   std::vector<BrickMeasure::Comp> comps;
   comps.reserve(comp_first[nb]);
+  // One process joins the components at once; the ranks send their links to rank 0.
+  detail::UnionFind uf(comm ? 0 : comp_first[nb]);
+  if (comm) {
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < nb; ++i) n += bm[i].links.size();
+    links.reserve(n);
+  }
   MeshMeasure m;
   std::size_t problems = 0, degenerate = 0;
   for (std::size_t i = 0; i < nb; ++i) {
@@ -561,18 +572,23 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
       const std::uint64_t other =
           owner < nb ? comp_before + comp_first[owner] + bm[owner].owned_comp[v - range[owner].edge]
                      : ghost_comp_first[owner] + ghost_owned_comp[owner][v - range[owner].edge];
-      links.push_back({static_cast<std::uint32_t>(comp_before + comp_first[i] + c),
-                       static_cast<std::uint32_t>(other)});
+      const auto a = static_cast<std::uint32_t>(comp_before + comp_first[i] + c);
+      if (comm)
+        links.push_back({a, static_cast<std::uint32_t>(other)});
+      else
+        uf.unite(a, static_cast<std::uint32_t>(other));
     }
     comps.insert(comps.end(), bm[i].comps.begin(), bm[i].comps.end());
     m.edges += bm[i].edges + border_edges[i];
     problems += bm[i].problems + border_problems[i];
     degenerate += bm[i].degenerate;
+    // Its vertices' components were needed by this brick and the ones before (a brick's
+    // links go to its own vertices and to its +x, +y, +z neighbours', later in key order).
+    bm[i] = BrickMeasure();
   }
-  verts.clear();
-  verts.shrink_to_fit();
   bm.clear();
   bm.shrink_to_fit();
+  malloc_trim(0);
   if (comm) {
     m.edges = comm->sum(m.edges);
     problems = comm->sum(problems);
@@ -584,7 +600,7 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
   Components resolved;
   std::vector<std::uint32_t> final_index;
   if (!comm) {
-    resolved = resolve_components(comps, links, closed);
+    resolved = resolve_components(comps, uf, closed);
     final_index = std::move(resolved.final_index);
   } else {
     Packer mine;
@@ -606,7 +622,9 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
         all.insert(all.end(), c.begin(), c.end());
         all_links.insert(all_links.end(), l.begin(), l.end());
       }
-      resolved = resolve_components(all, all_links, closed);
+      detail::UnionFind all_uf(all.size());
+      for (const auto& l : all_links) all_uf.unite(l[0], l[1]);
+      resolved = resolve_components(all, all_uf, closed);
       for (int r = 0, at = 0; r < comm->size(); at += static_cast<int>(count[r]), ++r) {
         Packer p;
         p.put_vector(std::vector<std::uint32_t>(resolved.final_index.begin() + at,
@@ -616,6 +634,10 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
     }
     final_index = Unpacker(comm->exchange(back)[0]).get_vector<std::uint32_t>();
   }
+  std::vector<BrickMeasure::Comp>().swap(comps);
+  std::vector<std::array<std::uint32_t, 2>>().swap(links);
+  std::vector<std::uint64_t>().swap(edge_start);
+  malloc_trim(0);
   report(0.95);
   // Each face's component: its brick's local component, resolved.
   tbb::parallel_for(std::size_t{0}, nb, [&](std::size_t i) {
