@@ -10,6 +10,7 @@
 #include <random>
 #include <set>
 
+#include "io_fixtures.h"
 #include "qjulia/base/error.h"
 #include "qjulia/io/mesh_io.h"
 #include "test_meshes.h"
@@ -125,7 +126,7 @@ void expect_round_trip(const std::string& ext, bool colored) {
   EXPECT_EQ(dir.entries(), ext == ".gltf" ? 2u : 1u);  // no temporary file left behind
 }
 
-const std::vector<std::string> kExtensions = {".glb", ".gltf", ".obj", ".ply", ".stl", ".3mf"};
+using io_fixtures::kExtensions;
 
 }  // namespace
 

@@ -27,7 +27,7 @@ using io_fixtures::write_bytes;
 using qjulia::InvalidInput;
 namespace fs = std::filesystem;
 
-const std::vector<std::string> kExtensions = {".glb", ".gltf", ".obj", ".ply", ".stl", ".3mf"};
+using io_fixtures::kExtensions;
 
 bool has(const std::string& text, const std::string& part) {
   return text.find(part) != std::string::npos;

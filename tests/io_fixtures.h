@@ -20,6 +20,10 @@ namespace io_fixtures {
 
 namespace fs = std::filesystem;
 
+/// The extension of every mesh format the library writes.
+inline const std::vector<std::string> kExtensions = {".glb", ".gltf", ".obj",
+                                                     ".ply", ".stl",  ".3mf"};
+
 inline std::string read_bytes(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   std::ostringstream s;

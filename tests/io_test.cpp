@@ -31,7 +31,7 @@ using qjulia::MeshFormat;
 using qjulia::TriMesh;
 namespace fs = std::filesystem;
 
-const std::vector<std::string> kExtensions = {".glb", ".gltf", ".obj", ".ply", ".stl", ".3mf"};
+using io_fixtures::kExtensions;
 
 /// The message of the InvalidInput `f` throws ("" and a test failure when it throws none).
 template <class F>
