@@ -61,6 +61,28 @@ void record_grid(const SampledGrid& grid, Comm* comm, RunStats& stats) {
   stats.grid_points = grid.points();
 }
 
+// What the run does besides sampling, extracting and cleaning, for the estimate.
+RunPlan run_plan(const PipelineOptions& opts) {
+  RunPlan plan;
+  plan.outputs = opts.outputs;
+  plan.dense = opts.dense;
+  plan.keep_grid = opts.keep_grid;
+  plan.preview = opts.preview;
+  plan.cancel = opts.cancel;
+  return plan;
+}
+
+// The estimate of the run and the limit it is checked against (described, then `where`), in
+// `stats`; refuses the run when it does not fit (check_run).
+void estimate_and_check(const Params& params, const RunPlan& plan, const PipelineOptions& opts,
+                        RunStats& stats, const std::string& where = "") {
+  stats.estimate = estimate_run(params, plan);
+  const MemoryLimits limits = memory_limits(opts.max_memory);
+  stats.memory_limit = limits.effective();
+  stats.memory_limit_source = limits.describe() + where;
+  check_run(params, plan, stats.estimate, limits);
+}
+
 // The extraction's options; starts its stage.
 ExtractOptions extract_options(const Params& params, const PipelineOptions& opts,
                                StageTimer& timer) {
@@ -134,18 +156,8 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   // What the run will need, before it starts.
   {
     timer.start("estimate");
-    RunPlan plan;
-    plan.outputs = opts.outputs;
-    plan.dense = opts.dense;
-    plan.keep_grid = opts.keep_grid;
-    plan.preview = opts.preview;
-    plan.cancel = opts.cancel;
-    stats.estimate = estimate_run(params, plan);
-    const MemoryLimits limits = memory_limits(opts.max_memory);
-    stats.memory_limit = limits.effective();
-    stats.memory_limit_source = limits.describe();
+    estimate_and_check(params, run_plan(opts), opts, stats);
     timer.stop();
-    check_run(params, plan, stats.estimate, limits);
   }
 
   SampleOptions sopts;
@@ -267,35 +279,18 @@ DistributedRun run_pipeline_distributed(const Params& params, const PipelineOpti
   DistributedRun run;
   RunStats& stats = run.result.stats;
   StageTimer timer(stats, opts.progress, opts.cancel);
-  const bool gather = opts.outputs.empty() || opts.preview ||
-                      !stays_distributed(params, opts.outputs.front(), opts.preview) ||
-                      opts.outputs.size() > 1;
+  const bool gather =
+      opts.outputs.size() != 1 || !stays_distributed(params, opts.outputs.front(), opts.preview);
   // The estimate on rank 0, for the largest rank (rank 0 when the mesh is gathered); the
   // verdict is every rank's.
-  {
-    timer.start("estimate");
-    std::exception_ptr error;
-    if (comm.rank() == 0) {
-      try {
-        RunPlan plan;
-        plan.outputs = opts.outputs;
-        plan.dense = opts.dense;
-        plan.preview = opts.preview;
-        plan.ranks = comm.size();
-        plan.gathered = gather;
-        plan.cancel = opts.cancel;
-        stats.estimate = estimate_run(params, plan);
-        const MemoryLimits limits = memory_limits(opts.max_memory);
-        stats.memory_limit = limits.effective();
-        stats.memory_limit_source = limits.describe() + " (rank 0)";
-        check_run(params, plan, stats.estimate, limits);
-      } catch (...) {
-        error = std::current_exception();
-      }
-    }
-    timer.stop();
-    detail::agree_on(comm, error);
-  }
+  timer.start("estimate");
+  detail::on_rank_zero(comm, [&] {
+    RunPlan plan = run_plan(opts);
+    plan.ranks = comm.size();
+    plan.gathered = gather;
+    estimate_and_check(params, plan, opts, stats, " (rank 0)");
+  });
+  timer.stop();
 
   detail::Distribution dist;
   dist.comm = &comm;
@@ -386,15 +381,7 @@ void write_distributed(const std::string& path, const DistributedRun& run,
     detail::write_mesh_part(path, run.part_mesh_, *run.part_, opts);
     return;
   }
-  std::exception_ptr error;
-  if (comm.rank() == 0) {
-    try {
-      write_mesh(path, run.result.mesh, opts);
-    } catch (...) {
-      error = std::current_exception();
-    }
-  }
-  detail::agree_on(comm, error);
+  detail::on_rank_zero(comm, [&] { write_mesh(path, run.result.mesh, opts); });
 }
 
 std::string stats_to_json(const RunStats& s, const Params& params) {
