@@ -62,6 +62,24 @@ void update_measures(ExtractStats& stats, const std::vector<char>& drop, std::si
   rep.components_after = m.components.size();
 }
 
+// Moves the vertices `keep(v, new index)` keeps (with their normals and colours) to the front,
+// in order, and drops the rest; returns how many are kept.
+template <class Keep>
+std::size_t compact_vertices(TriMesh& mesh, Keep&& keep) {
+  std::size_t next = 0;
+  for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
+    if (!keep(v, static_cast<std::uint32_t>(next))) continue;
+    mesh.positions[next] = mesh.positions[v];
+    if (!mesh.normals.empty()) mesh.normals[next] = mesh.normals[v];
+    if (!mesh.colors.empty()) mesh.colors[next] = mesh.colors[v];
+    ++next;
+  }
+  mesh.positions.resize(next);
+  if (!mesh.normals.empty()) mesh.normals.resize(next);
+  if (!mesh.colors.empty()) mesh.colors.resize(next);
+  return next;
+}
+
 }  // namespace
 
 CleanReport remove_dust(TriMesh& mesh, ExtractStats& stats, double min_volume) {
@@ -87,18 +105,11 @@ CleanReport remove_dust(TriMesh& mesh, ExtractStats& stats, double min_volume) {
   rep.removed_faces = mesh.triangles.size() - kept_faces;
   mesh.triangles.resize(kept_faces);
   stats.face_component.resize(kept_faces);
-  std::uint32_t next = 0;
-  for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
-    if (renumber[v] == UINT32_MAX) continue;
+  compact_vertices(mesh, [&](std::size_t v, std::uint32_t next) {
+    if (renumber[v] == UINT32_MAX) return false;
     renumber[v] = next;
-    mesh.positions[next] = mesh.positions[v];
-    if (!mesh.normals.empty()) mesh.normals[next] = mesh.normals[v];
-    if (!mesh.colors.empty()) mesh.colors[next] = mesh.colors[v];
-    ++next;
-  }
-  mesh.positions.resize(next);
-  if (!mesh.normals.empty()) mesh.normals.resize(next);
-  if (!mesh.colors.empty()) mesh.colors.resize(next);
+    return true;
+  });
   for (auto& t : mesh.triangles)
     for (auto& v : t) v = renumber[v];
   update_measures(stats, drop, mesh.positions.size(), mesh.triangles.size(), rep);
@@ -174,17 +185,7 @@ CleanReport remove_dust_part(TriMesh& mesh, ExtractStats& stats, double min_volu
       v = l != UINT64_MAX ? renumber[l] : ghost_renumber[part.ghost(v)];
     }
   // The vertices, compacted; the runs follow (what is kept of a run stays contiguous).
-  std::size_t next = 0;
-  for (std::size_t l = 0; l < own; ++l) {
-    if (!used[l]) continue;
-    mesh.positions[next] = mesh.positions[l];
-    if (!mesh.normals.empty()) mesh.normals[next] = mesh.normals[l];
-    if (!mesh.colors.empty()) mesh.colors[next] = mesh.colors[l];
-    ++next;
-  }
-  mesh.positions.resize(next);
-  if (!mesh.normals.empty()) mesh.normals.resize(next);
-  if (!mesh.colors.empty()) mesh.colors.resize(next);
+  compact_vertices(mesh, [&](std::size_t l, std::uint32_t) { return used[l] != 0; });
   for (VertexRun& run : part.shared) {
     std::uint64_t first = UINT64_MAX, count = 0;
     for (std::uint64_t k = 0; k < run.count; ++k)
