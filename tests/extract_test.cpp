@@ -1,11 +1,13 @@
 #include "qjulia/surface/extract.h"
 
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <cmath>
 #include <complex>
 #include <tuple>
 
+#include "base/geometry.h"
 #include "base/mesh_check.h"
 #include "qjulia/field/classify.h"
 #include "qjulia/grid/sample.h"
@@ -437,6 +439,30 @@ TEST(Extract, BricksMeasureTheMeshAsAWholeMeshPassDoesOnEveryPreset) {
     ASSERT_TRUE(es.measure_valid);
     expect_same_measure(es.measure, measure(mesh));
     ASSERT_EQ(es.face_component.size(), mesh.triangles.size());
+  }
+}
+
+TEST(Extract, NormalsAreEachVertexsFaceOrderSumOnAnyThreadCount) {
+  // newton-cubic at 128: about 410,000 faces, more than one block (2^18) of the parallel sum.
+  Params p = preset("newton-cubic");
+  p.resolution = 128;
+  TriMesh mesh = extract(sample(p), {});
+  ASSERT_GT(mesh.triangles.size(), std::size_t{1} << 18);
+  std::vector<std::array<float, 3>> serial(mesh.positions.size(), {0, 0, 0});
+  detail::add_area_normals(
+      mesh.triangles, [&](std::uint32_t v) -> const auto& { return mesh.positions[v]; },
+      [&](std::uint32_t v) { return &serial[v]; });
+  for (auto& n : serial) detail::normalize_sum(n);
+  ASSERT_EQ(mesh.normals, serial);  // extract's own normals
+  for (int threads : {1, 2, 3, 7}) {
+    SCOPED_TRACE(threads);
+    tbb::task_arena arena(threads);
+    std::vector<std::array<float, 3>> parallel;
+    arena.execute([&] { parallel = area_weighted_normals(mesh); });
+    ASSERT_EQ(parallel.size(), serial.size());
+    std::size_t differ = 0;
+    for (std::size_t v = 0; v < serial.size(); ++v) differ += parallel[v] != serial[v];
+    EXPECT_EQ(differ, 0u);
   }
 }
 

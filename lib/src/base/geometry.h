@@ -60,6 +60,15 @@ void add_area_normals(const Triangles& triangles, const PositionOf& position, co
   }
 }
 
+/// What add_area_normals() adds at each corner of triangle t: twice its area times its unit
+/// normal, rounded to float.
+template <class Positions, class Triangle>
+std::array<float, 3> area_normal(const Positions& positions, const Triangle& t) {
+  const Vec3d a = to_vec3d(positions[t[0]]);
+  const Vec3d n = cross(to_vec3d(positions[t[1]]) - a, to_vec3d(positions[t[2]]) - a);
+  return {static_cast<float>(n[0]), static_cast<float>(n[1]), static_cast<float>(n[2])};
+}
+
 /// A sum of add_area_normals() made unit length; (0, 0, 1) where it has no direction.
 inline void normalize_sum(std::array<float, 3>& n) {
   const double len = std::sqrt(double(n[0]) * n[0] + double(n[1]) * n[1] + double(n[2]) * n[2]);

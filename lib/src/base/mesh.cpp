@@ -1,10 +1,13 @@
 #include "qjulia/base/mesh.h"
 
+#include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
 
+#include "base/first_touch.h"
 #include "base/geometry.h"
 #include "base/mesh_check.h"
 #include "base/union_find.h"
@@ -188,12 +191,35 @@ MeshMeasure measure(const TriMesh& mesh, const CancelToken* cancel) {
 
 std::vector<std::array<float, 3>> area_weighted_normals(const TriMesh& mesh) {
   // Summed in the output itself (float: a vertex has a few faces, and a unit normal needs no
-  // more), serially in face order, so the result does not depend on threads.
-  std::vector<std::array<float, 3>> normals(mesh.positions.size(), {0, 0, 0});
-  detail::add_area_normals(
-      mesh.triangles, [&](std::uint32_t v) -> const auto& { return mesh.positions[v]; },
-      [&](std::uint32_t v) { return &normals[v]; });
-  for (auto& n : normals) detail::normalize_sum(n);
+  // more), each vertex's faces in face order, so the result does not depend on threads: the face
+  // normals of a block are made in parallel, then each thread adds them to its own vertices (64
+  // consecutive ones in every `lanes`), scanning the block in order.
+  std::vector<std::array<float, 3>> normals;
+  detail::resize_first_touched(normals, mesh.positions.size());
+  const std::size_t nf = mesh.triangles.size();
+  constexpr std::size_t kBlock = std::size_t{1} << 18;
+  std::vector<std::array<float, 3>> face(std::min(kBlock, nf));
+  const std::size_t lanes =
+      std::max<std::size_t>(1, static_cast<std::size_t>(tbb::this_task_arena::max_concurrency()));
+  for (std::size_t first = 0; first < nf; first += kBlock) {
+    const std::size_t n = std::min(kBlock, nf - first);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t f = r.begin(); f != r.end(); ++f)
+                          face[f] = detail::area_normal(mesh.positions, mesh.triangles[first + f]);
+                      });
+    tbb::parallel_for(std::size_t{0}, lanes, [&](std::size_t lane) {
+      for (std::size_t f = 0; f < n; ++f)
+        for (std::uint32_t v : mesh.triangles[first + f])
+          if ((v >> 6) % lanes == lane)
+            for (int k = 0; k < 3; ++k) normals[v][k] += face[f][k];
+    });
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, normals.size(), 1 << 14),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t v = r.begin(); v != r.end(); ++v)
+                        detail::normalize_sum(normals[v]);
+                    });
   return normals;
 }
 

@@ -2,8 +2,8 @@
 // shading of every sample and the average of the supersamples.
 //
 // Determinism: every pass writes disjoint outputs (vertices, tiles, rows), and the vertex
-// normals are summed serially (base's area_weighted_normals), so the image does not depend on
-// how TBB schedules the work or on the thread count.
+// normals are summed in face order at each vertex (base's area_weighted_normals), so the image does
+// not depend on how TBB schedules the work or on the thread count.
 #include "qjulia/render/render.h"
 
 #include <tbb/blocked_range.h>

@@ -13,6 +13,7 @@
 #include <unordered_set>
 
 #include "base/distribution.h"
+#include "base/first_touch.h"
 #include "base/geometry.h"
 #include "base/union_find.h"
 #include "grid/grid_impl.h"
@@ -419,16 +420,16 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
     throw TooLarge("the mesh has " + std::to_string(edges_total + centres_total) +
                    " vertices; 32-bit indices hold at most 4294967295");
   TriMesh mesh;
-  mesh.positions.resize(edges_local + centres_local);
-  mesh.triangles.resize(faces_local);
-  for (std::size_t i = 0; i < nb; ++i) {
+  detail::resize_first_touched(mesh.positions, edges_local + centres_local);
+  detail::resize_first_touched(mesh.triangles, faces_local);
+  tbb::parallel_for(std::size_t{0}, nb, [&](std::size_t i) {
     std::copy(verts[i].positions.begin(), verts[i].positions.end(),
               mesh.positions.begin() + (range[i].edge - edge_first));
     std::copy(plans[i].centres.begin(), plans[i].centres.end(),
               mesh.positions.begin() + edges_local + (range[i].centre - centre_first));
     std::vector<std::array<float, 3>>().swap(verts[i].positions);
     std::vector<std::array<float, 3>>().swap(plans[i].centres);
-  }
+  });
   malloc_trim(0);
   if (part) {
     part->edge_first = edge_first;
@@ -466,7 +467,8 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
   const std::array<double, 3> origin = impl.geometry.origin;
   std::vector<detail::BrickFaces> faces(nv);
   std::vector<BrickMeasure> bm(nb);
-  std::vector<std::uint32_t> face_component(faces_local);
+  std::vector<std::uint32_t> face_component;
+  detail::resize_first_touched(face_component, faces_local);
   each_brick(0.5, 0.9, [&](std::size_t i) {
     detail::MeshTarget target;
     target.triangles = mesh.triangles.data();

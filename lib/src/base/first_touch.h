@@ -1,0 +1,34 @@
+#pragma once
+// Large vectors whose pages are first touched by all threads: a fresh page costs far more than
+// writing it (the kernel clears it, and a virtual machine's host may have to back it), and a
+// vector's own resize() touches them all on one thread.
+#include <tbb/parallel_for.h>
+
+#include <cstring>
+#include <type_traits>
+#include <vector>
+
+namespace qjulia::detail {
+
+/// Resizes `v` to `n` value-initialised elements, its new storage's pages touched in parallel.
+template <class T>
+void resize_first_touched(std::vector<T>& v, std::size_t n) {
+  static_assert(std::is_trivially_copyable_v<T> && std::is_trivially_default_constructible_v<T>);
+  if (n <= v.size()) {
+    v.resize(n);
+    return;
+  }
+  v.reserve(n);
+  // The storage is the allocator's and holds no live objects beyond size(): its bytes may be
+  // written before resize() constructs the elements there.
+  char* const from = reinterpret_cast<char*>(v.data() + v.size());
+  const std::size_t bytes = (n - v.size()) * sizeof(T);
+  constexpr std::size_t kBlock = std::size_t{1} << 21;
+  if (bytes >= 2 * kBlock)
+    tbb::parallel_for(std::size_t{0}, (bytes + kBlock - 1) / kBlock, [&](std::size_t b) {
+      std::memset(from + b * kBlock, 0, std::min(kBlock, bytes - b * kBlock));
+    });
+  v.resize(n);
+}
+
+}  // namespace qjulia::detail
