@@ -58,11 +58,13 @@ class Cli : public ::testing::Test {
     fs::remove_all(root_, ec);
   }
 
-  // Runs `qjulia ARGS` (ARGS as written on a shell command line) in work_.
-  CliRun run(const std::string& args) const {
+  // Runs `qjulia ARGS` (ARGS as written on a shell command line) in work_, after the shell
+  // commands `setup` (e.g. a ulimit).
+  CliRun run(const std::string& args, const std::string& setup = "") const {
     const fs::path err = root_ / "stderr.txt";
-    const std::string cmd = "cd '" + work_.string() + "' && '" QJULIA_CLI "' " + args + " 2> '" +
-                            err.string() + "' < /dev/null";
+    const std::string cmd = "cd '" + work_.string() + "' && " +
+                            (setup.empty() ? "" : setup + " && ") + "'" QJULIA_CLI "' " + args +
+                            " 2> '" + err.string() + "' < /dev/null";
     CliRun r;
     FILE* pipe = ::popen(cmd.c_str(), "r");
     if (!pipe) {
@@ -295,6 +297,21 @@ TEST_F(Cli, BenchPrintsTheKernelAgainstTheReference) {
   }
   EXPECT_EQ(rows, 2) << r.out;
   EXPECT_TRUE(files().empty()) << "bench writes nothing";
+}
+
+TEST_F(Cli, AFileSizeLimitFailsTheWriteNamingTheFileAndLeavesNoFile) {
+  // Under `ulimit -f` a write beyond the limit raises SIGXFSZ, which would kill the process
+  // with its temporary file left behind; the CLI ignores it, so the write fails with EFBIG.
+  for (const char* ext : {"ply", "stl", "obj", "glb", "gltf", "3mf"}) {
+    SCOPED_TRACE(ext);
+    const std::string out = std::string("out.") + ext;
+    const CliRun r =
+        run("mesh --preset unit-ball --resolution 64 --quiet -o " + out, "ulimit -f 64");
+    EXPECT_EQ(r.code, 1) << r.err;
+    EXPECT_NE(r.err.find("File too large"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(ext == std::string("gltf") ? "out.bin" : out), std::string::npos) << r.err;
+    EXPECT_EQ(files(), std::vector<std::string>{}) << "no file, not even a temporary one";
+  }
 }
 
 TEST_F(Cli, TheWrittenMeshDoesNotDependOnTheThreadCount) {

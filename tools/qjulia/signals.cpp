@@ -27,6 +27,10 @@ void install_signal_handlers() {
   action.sa_flags = SA_RESTART;  // system calls go on; the stages see the token
   sigaction(SIGINT, &action, nullptr);
   sigaction(SIGTERM, &action, nullptr);
+  struct sigaction ignore {};
+  ignore.sa_handler = SIG_IGN;
+  sigemptyset(&ignore.sa_mask);
+  sigaction(SIGXFSZ, &ignore, nullptr);
 }
 
 const CancelToken& interrupt_token() { return g_token; }

@@ -1,13 +1,15 @@
 #pragma once
-// SIGINT and SIGTERM: the CLI's one cancellation token. The library installs no handlers;
-// this file is the only place that does.
+// SIGINT and SIGTERM: the CLI's one cancellation token (and SIGXFSZ, ignored). The library installs
+// no handlers; this file is the only place that does.
 #include "qjulia/base/progress.h"
 
 namespace qjulia::cli {
 
 /// Installs handlers for SIGINT and SIGTERM. The first of them requests interrupt_token(), so
 /// the running stage stops at its next check and the command unwinds, removing what it wrote;
-/// a second one ends the process at once with exit code 128 + signal.
+/// a second one ends the process at once with exit code 128 + signal. SIGXFSZ is ignored, so a
+/// file-size limit (ulimit -f) makes the write fail with EFBIG: the command then exits with
+/// an error naming the file and removes its temporary file, instead of dying half-way.
 void install_signal_handlers();
 
 /// The token the handlers request; every stage of a command gets it.
