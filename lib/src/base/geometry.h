@@ -45,6 +45,15 @@ inline double tetra_volume(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
   return dot(a, cross(b, c)) / 6.0;
 }
 
+/// Triangle t's area-weighted normal (|n| = 2 * area), rounded to float: what
+/// add_area_normals() adds at each of its corners. `position(v)` gives corner v.
+template <class Triangle, class PositionOf>
+std::array<float, 3> area_normal(const Triangle& t, const PositionOf& position) {
+  const Vec3d a = to_vec3d(position(t[0]));
+  const Vec3d n = cross(to_vec3d(position(t[1])) - a, to_vec3d(position(t[2])) - a);
+  return {static_cast<float>(n[0]), static_cast<float>(n[1]), static_cast<float>(n[2])};
+}
+
 /// Adds each triangle's area-weighted normal (|n| = 2 * area) to its corners' float sums, in
 /// triangle order: `position(v)` gives corner v, `sum(v)` its sum or null (not summed here).
 /// One process and the ranks of a distributed run add in this same order, so they agree bit for
@@ -52,21 +61,11 @@ inline double tetra_volume(const Vec3d& a, const Vec3d& b, const Vec3d& c) {
 template <class Triangles, class PositionOf, class SumOf>
 void add_area_normals(const Triangles& triangles, const PositionOf& position, const SumOf& sum) {
   for (const auto& t : triangles) {
-    const Vec3d a = to_vec3d(position(t[0]));
-    const Vec3d n = cross(to_vec3d(position(t[1])) - a, to_vec3d(position(t[2])) - a);
+    const std::array<float, 3> n = area_normal(t, position);
     for (auto v : t)
       if (std::array<float, 3>* s = sum(v))
-        for (int k = 0; k < 3; ++k) (*s)[k] += static_cast<float>(n[k]);
+        for (int k = 0; k < 3; ++k) (*s)[k] += n[k];
   }
-}
-
-/// What add_area_normals() adds at each corner of triangle t: twice its area times its unit
-/// normal, rounded to float.
-template <class Positions, class Triangle>
-std::array<float, 3> area_normal(const Positions& positions, const Triangle& t) {
-  const Vec3d a = to_vec3d(positions[t[0]]);
-  const Vec3d n = cross(to_vec3d(positions[t[1]]) - a, to_vec3d(positions[t[2]]) - a);
-  return {static_cast<float>(n[0]), static_cast<float>(n[1]), static_cast<float>(n[2])};
 }
 
 /// A sum of add_area_normals() made unit length; (0, 0, 1) where it has no direction.

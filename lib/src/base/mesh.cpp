@@ -197,6 +197,7 @@ std::vector<std::array<float, 3>> area_weighted_normals(const TriMesh& mesh) {
   std::vector<std::array<float, 3>> normals;
   detail::resize_first_touched(normals, mesh.positions.size());
   const std::size_t nf = mesh.triangles.size();
+  auto position = [&](std::uint32_t v) -> const auto& { return mesh.positions[v]; };
   constexpr std::size_t kBlock = std::size_t{1} << 18;
   std::vector<std::array<float, 3>> face(std::min(kBlock, nf));
   const std::size_t lanes =
@@ -206,7 +207,7 @@ std::vector<std::array<float, 3>> area_weighted_normals(const TriMesh& mesh) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096),
                       [&](const tbb::blocked_range<std::size_t>& r) {
                         for (std::size_t f = r.begin(); f != r.end(); ++f)
-                          face[f] = detail::area_normal(mesh.positions, mesh.triangles[first + f]);
+                          face[f] = detail::area_normal(mesh.triangles[first + f], position);
                       });
     tbb::parallel_for(std::size_t{0}, lanes, [&](std::size_t lane) {
       for (std::size_t f = 0; f < n; ++f)
