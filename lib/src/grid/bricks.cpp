@@ -23,6 +23,8 @@ namespace {
 constexpr float kRoughness = 1.0f;
 // The stride of the coarse lattice.
 constexpr int kCoarse = 16;
+// Bricks of a class visited together, sharing their batches of evaluations.
+constexpr std::size_t kGroup = 32;
 
 int floor_div(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
 
@@ -76,6 +78,47 @@ struct Outbox {
   std::vector<Brick*> schedule;
   std::vector<Request> remote;  // to bricks another rank owns
 };
+
+// The local coordinates of each of a brick's 9^3 points, and the point sets its levels
+// evaluate, as bit sets.
+struct PointTables {
+  std::uint8_t at[kBrickPoints][3];
+  Bits<kBrickPoints> face;        // points with a local coordinate 0 or 8: shared with neighbours
+  Bits<kBrickPoints> level8;      // the 8 corners
+  Bits<kBrickPoints> level4;      // the 27 points at stride 4
+  Bits<kBrickPoints> level2[8];   // the 27 points at stride 2 of each 4-cell
+  Bits<kBrickPoints> level1[64];  // the 27 points of each 2-cell
+  PointTables() {
+    for (int i = 0; i < kSide; ++i)
+      for (int j = 0; j < kSide; ++j)
+        for (int k = 0; k < kSide; ++k) {
+          const int p = point_index(i, j, k);
+          at[p][0] = static_cast<std::uint8_t>(i);
+          at[p][1] = static_cast<std::uint8_t>(j);
+          at[p][2] = static_cast<std::uint8_t>(k);
+          auto edge = [](int c) { return c == 0 || c == kBrick; };
+          if (edge(i) || edge(j) || edge(k)) face.set(p);
+          if (i % 8 == 0 && j % 8 == 0 && k % 8 == 0) level8.set(p);
+          if (i % 4 == 0 && j % 4 == 0 && k % 4 == 0) level4.set(p);
+        }
+    for (int q = 0; q < 8; ++q) {
+      const int o[3] = {(q & 1) * 4, ((q >> 1) & 1) * 4, (q >> 2) * 4};
+      for (int i = 0; i <= 4; i += 2)
+        for (int j = 0; j <= 4; j += 2)
+          for (int k = 0; k <= 4; k += 2) level2[q].set(point_index(o[0] + i, o[1] + j, o[2] + k));
+    }
+    for (int t = 0; t < 64; ++t) {
+      const int o[3] = {(t / 16) * 2, ((t / 4) % 4) * 2, (t % 4) * 2};
+      for (int i = 0; i <= 2; ++i)
+        for (int j = 0; j <= 2; ++j)
+          for (int k = 0; k <= 2; ++k) level1[t].set(point_index(o[0] + i, o[1] + j, o[2] + k));
+    }
+  }
+};
+const PointTables& point_tables() {
+  static const PointTables t;
+  return t;
+}
 
 }  // namespace
 
@@ -202,7 +245,7 @@ struct BrickSampler::Impl {
 
   // The value of global point g from a neighbour brick or the coarse lattice, if one has it.
   bool lookup(const Brick& br, const Around& a, const int g[3], float* v) const {
-    int lo[3], hi[3];
+    int lo[3], hi[3], faces = 0;
     for (int k = 0; k < 3; ++k) {
       const int b = (k == 0 ? br.at.x : k == 1 ? br.at.y : br.at.z);
       const int local = g[k] - b * kBrick;
@@ -210,7 +253,11 @@ struct BrickSampler::Impl {
       // on our upper face.
       lo[k] = local == 0 ? -1 : 0;
       hi[k] = local == kBrick ? 1 : 0;
+      faces += lo[k] != hi[k];
     }
+    // A point inside the brick is in no neighbour, nor in the lattice (whose points are brick
+    // corners).
+    if (faces == 0) return false;
     for (int dx = lo[0]; dx <= hi[0]; ++dx)
       for (int dy = lo[1]; dy <= hi[1]; ++dy)
         for (int dz = lo[2]; dz <= hi[2]; ++dz) {
@@ -224,7 +271,7 @@ struct BrickSampler::Impl {
             return true;
           }
         }
-    if (lattice) {
+    if (lattice && faces == 3) {
       constexpr int s = kCoarse;
       auto in_lattice = [&](int i, int j, int k) {
         return i >= -1 && j >= -1 && k >= -1 && i <= lattice_hi[0] + 1 && j <= lattice_hi[1] + 1 &&
@@ -260,10 +307,57 @@ struct BrickSampler::Impl {
     });
   }
 
+  // True when no point of the brick has a virtual value: all inside the index range, no clip.
+  bool all_real(const Brick& br) const {
+    const int base[3] = {br.at.x * kBrick, br.at.y * kBrick, br.at.z * kBrick};
+    for (int k = 0; k < 3; ++k)
+      if (base[k] < 0 || base[k] + kBrick > geo.points[k] - 1) return false;
+    return !solid.has_clip();
+  }
+
+  // Makes the points of `want` known (the brick unpacked): copied from a neighbour or the
+  // lattice, or queued in the batch for evaluation; `real` when no point of the brick is virtual.
+  void need_mask(Brick& br, const Around& a, Bits<kBrickPoints> want, Batch& b, bool real) const {
+    using Pts = Bits<kBrickPoints>;
+    const PointTables& t = point_tables();
+    want = want & ~br.known;
+    br.known = br.known | want;
+    const int base[3] = {br.at.x * kBrick, br.at.y * kBrick, br.at.z * kBrick};
+    if (map) {
+      // Only points on the brick's faces can be held by a neighbour or the lattice.
+      const Pts shared = want & t.face;
+      for (int w = 0; w < Pts::kWords; ++w)
+        for (std::uint64_t bits = shared.w[w]; bits; bits &= bits - 1) {
+          const int p = w * 64 + __builtin_ctzll(bits);
+          const int g[3] = {base[0] + t.at[p][0], base[1] + t.at[p][1], base[2] + t.at[p][2]};
+          if (g[0] >= 0 && g[1] >= 0 && g[2] >= 0 && lookup(br, a, g, br.slot(p)))
+            want.w[w] &= ~(std::uint64_t{1} << (p & 63));
+        }
+    }
+    for (int w = 0; w < Pts::kWords; ++w)
+      for (std::uint64_t bits = want.w[w]; bits; bits &= bits - 1) {
+        const int p = w * 64 + __builtin_ctzll(bits);
+        const int g[3] = {base[0] + t.at[p][0], base[1] + t.at[p][1], base[2] + t.at[p][2]};
+        if (!real && virtual_value(geo, solid, g[0], g[1], g[2], br.slot(p))) continue;
+        // From the global index, as every other path computes a grid point.
+        b.x.push_back(geo.origin[0] + g[0] * geo.voxel);
+        b.y.push_back(geo.origin[1] + g[1] * geo.voxel);
+        b.z.push_back(geo.origin[2] + g[2] * geo.voxel);
+        b.dest.push_back(br.slot(p));
+      }
+  }
+
   // Flags the cube of side s (points) at local lower corner (i, j, k) by its corners (and its
-  // centre when `centre`).
-  bool flag_cube(const Brick& br, int i, int j, int k, int s, bool centre) const {
+  // centre when `centre`); `real` when no point of the brick is virtual.
+  bool flag_cube(const Brick& br, int i, int j, int k, int s, bool centre,
+                 bool real = false) const {
     Flagger f;
+    if (real && !centre) {
+      for (int d = 0; d < 8; ++d)
+        f.add(br.get(point_index(i + (d & 1) * s, j + ((d >> 1) & 1) * s, k + (d >> 2) * s)),
+              false);
+      return f.refine(s > 1);
+    }
     for (int d = 0; d < 8; ++d) {
       const int a = i + (d & 1) * s, bb = j + ((d >> 1) & 1) * s, c = k + (d >> 2) * s;
       f.add(br.get(point_index(a, bb, c)),
@@ -279,17 +373,21 @@ struct BrickSampler::Impl {
 
   // --- one visit of a brick -------------------------------------------------------------------
 
-  // Level 8 of a candidate brick: its corners; true when it is to be refined.
-  bool flag8(Brick& br, Batch& b) {
-    const Around a = around(br);
-    br.unpack();
-    need(br, a, b, [](auto&& at) {
-      for (int d = 0; d < 8; ++d) at((d & 1) * kBrick, ((d >> 1) & 1) * kBrick, (d >> 2) * kBrick);
-    });
+  // Level 8 of candidate bricks: their corners; hit[i] true when brick i is to be refined.
+  // The bricks of a group share one batch of evaluations.
+  void flag8(Brick* const* group, std::size_t n, Batch& b, char* hit) {
+    for (std::size_t i = 0; i < n; ++i) {
+      Brick& br = *group[i];
+      const Around a = around(br);
+      br.unpack();
+      need_mask(br, a, point_tables().level8, b, false);
+    }
     run(b);
-    const bool refine = flag_cube(br, 0, 0, 0, kBrick, false);
-    br.pack();
-    return refine;
+    for (std::size_t i = 0; i < n; ++i) {
+      Brick& br = *group[i];
+      hit[i] = flag_cube(br, 0, 0, 0, kBrick, false);
+      br.pack();
+    }
   }
 
   // Runs the refinement of a brick from its requests; appends requests to its neighbours.
@@ -318,99 +416,147 @@ struct BrickSampler::Impl {
     if (fresh && !n.scheduled.exchange(true)) out.schedule.push_back(&n);
   }
 
-  void visit(Brick& br, Batch& b, Outbox& out) {
-    const Around a = around(br);
-    br.unpack();
-    // What the neighbours asked for since the last visit.
-    std::uint8_t seed4 = br.inbox4.exchange(0);
-    std::vector<std::uint16_t> seed_cells;
-    for (int w = 0; w < kBrickCells / 64; ++w)
-      for (std::uint64_t bits = br.inbox_cells[w].exchange(0); bits; bits &= bits - 1)
-        seed_cells.push_back(static_cast<std::uint16_t>(w * 64 + __builtin_ctzll(bits)));
-    const bool refined8 = br.refined8;
-    // Level 4: the 27 points at stride 4; flagged 4-cells dilated by one 4-cell.
-    if (refined8 && !br.started) {
-      need(br, a, b, [](auto&& at) {
-        for (int i = 0; i <= 8; i += 4)
-          for (int j = 0; j <= 8; j += 4)
-            for (int k = 0; k <= 8; k += 4) at(i, j, k);
-      });
-      run(b);
-      for (int q = 0; q < 8; ++q)
-        if (flag_cube(br, (q & 1) * 4, ((q >> 1) & 1) * 4, (q >> 2) * 4, 4, false))
-          br.flagged4 |= static_cast<std::uint8_t>(1u << q);
-      for (int q = 0; q < 8; ++q) {
-        if (!(br.flagged4 >> q & 1)) continue;
-        const int c[3] = {q & 1, (q >> 1) & 1, q >> 2};
-        for (int dx = -1; dx <= 1; ++dx)
-          for (int dy = -1; dy <= 1; ++dy)
-            for (int dz = -1; dz <= 1; ++dz) {
-              const int n[3] = {c[0] + dx, c[1] + dy, c[2] + dz};
-              const int bo[3] = {floor_div(n[0], 2), floor_div(n[1], 2), floor_div(n[2], 2)};
-              const int lq =
-                  (n[0] - 2 * bo[0]) | ((n[1] - 2 * bo[1]) << 1) | ((n[2] - 2 * bo[2]) << 2);
-              if (bo[0] == 0 && bo[1] == 0 && bo[2] == 0) {
-                seed4 |= static_cast<std::uint8_t>(1u << lq);
-              } else {
-                const int nb[3] = {br.at.x + bo[0], br.at.y + bo[1], br.at.z + bo[2]};
-                if (!in_range(nb)) continue;
-                deliver(a, br,
-                        {brick_key(nb[0], nb[1], nb[2]), static_cast<std::uint8_t>(1u << lq)}, out);
-              }
-            }
+  using Pts = Bits<kBrickPoints>;
+  // One brick's visit in progress: what its levels and its closure need between the batches
+  // of evaluations that the bricks of a group share.
+  struct Visit {
+    Brick* br = nullptr;
+    Around a;
+    std::uint8_t seed4 = 0, new4 = 0;
+    std::uint64_t new2 = 0;
+    bool level4 = false;
+    std::vector<std::uint16_t> frontier_cells;
+    // The closure, over the 9^3 points (a cell named by its lower corner).
+    Pts valid, frontier, visited, surface, sign;
+    std::vector<int> queued;
+    bool closing = false;
+    bool real = false;  // no point of the brick is virtual
+  };
+
+  // Visits a group of bricks of one class: each level (4, 2, 1) and each round of the closure
+  // evaluates the points of all the group's bricks in one batch. Bricks of a class share no
+  // point, so the group's bricks do exactly what they would do one at a time.
+  void visit(Brick* const* group, std::size_t n, Batch& b, Outbox& out) {
+    thread_local std::vector<Visit> visits;
+    if (visits.size() < n) visits.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      Visit& v = visits[i];
+      Brick& br = *group[i];
+      v.br = &br;
+      v.a = around(br);
+      br.unpack();
+      // What the neighbours asked for since the last visit.
+      v.seed4 = br.inbox4.exchange(0);
+      v.frontier_cells.clear();
+      for (int w = 0; w < kBrickCells / 64; ++w)
+        for (std::uint64_t bits = br.inbox_cells[w].exchange(0); bits; bits &= bits - 1)
+          v.frontier_cells.push_back(static_cast<std::uint16_t>(w * 64 + __builtin_ctzll(bits)));
+      v.real = all_real(br);
+      // Level 4: the 27 points at stride 4.
+      v.level4 = br.refined8 && !br.started;
+      if (v.level4) need_mask(br, v.a, point_tables().level4, b, v.real);
+    }
+    run(b);
+    for (std::size_t i = 0; i < n; ++i) {
+      Visit& v = visits[i];
+      Brick& br = *v.br;
+      // Flagged 4-cells dilated by one 4-cell.
+      if (v.level4) level4_flags(v, out);
+      br.started = true;
+      br.refine4 |= v.seed4;
+      // Level 2: the 27 points at stride 2 of each new 4-cell.
+      v.new4 = br.refine4 & static_cast<std::uint8_t>(~br.done4);
+      if (v.new4) {
+        Pts want;
+        for (int q = 0; q < 8; ++q)
+          if (v.new4 >> q & 1) want = want | point_tables().level2[q];
+        need_mask(br, v.a, want, b, v.real);
       }
     }
-    br.started = true;
-    br.refine4 |= seed4;
-    // Level 2: the 27 points at stride 2 of each new 4-cell; its 2-cells flagged.
-    const std::uint8_t new4 = br.refine4 & static_cast<std::uint8_t>(~br.done4);
-    if (new4) {
-      need(br, a, b, [&](auto&& at) {
+    run(b);
+    for (std::size_t i = 0; i < n; ++i) {
+      Visit& v = visits[i];
+      Brick& br = *v.br;
+      // Its 2-cells flagged.
+      if (v.new4) {
         for (int q = 0; q < 8; ++q) {
-          if (!(new4 >> q & 1)) continue;
+          if (!(v.new4 >> q & 1)) continue;
           const int o[3] = {(q & 1) * 4, ((q >> 1) & 1) * 4, (q >> 2) * 4};
-          for (int i = 0; i <= 4; i += 2)
-            for (int j = 0; j <= 4; j += 2)
-              for (int k = 0; k <= 4; k += 2) at(o[0] + i, o[1] + j, o[2] + k);
+          for (int r = 0; r < 8; ++r) {
+            const int c[3] = {o[0] + (r & 1) * 2, o[1] + ((r >> 1) & 1) * 2, o[2] + (r >> 2) * 2};
+            if (flag_cube(br, c[0], c[1], c[2], 2, false, v.real))
+              br.refine2 |= std::uint64_t{1} << ((c[0] / 2) * 16 + (c[1] / 2) * 4 + c[2] / 2);
+          }
         }
-      });
-      run(b);
-      for (int q = 0; q < 8; ++q) {
-        if (!(new4 >> q & 1)) continue;
-        const int o[3] = {(q & 1) * 4, ((q >> 1) & 1) * 4, (q >> 2) * 4};
-        for (int r = 0; r < 8; ++r) {
-          const int c[3] = {o[0] + (r & 1) * 2, o[1] + ((r >> 1) & 1) * 2, o[2] + (r >> 2) * 2};
-          if (flag_cube(br, c[0], c[1], c[2], 2, false))
-            br.refine2 |= std::uint64_t{1} << ((c[0] / 2) * 16 + (c[1] / 2) * 4 + c[2] / 2);
-        }
+        br.done4 |= v.new4;
       }
-      br.done4 |= new4;
+      // Level 1: the points of each new 2-cell.
+      v.new2 = br.refine2 & ~br.done2;
+      if (v.new2) {
+        Pts want;
+        for (std::uint64_t bits = v.new2; bits; bits &= bits - 1)
+          want = want | point_tables().level1[__builtin_ctzll(bits)];
+        need_mask(br, v.a, want, b, v.real);
+      }
     }
-    // Level 1: the points of each new 2-cell; its crossing voxels start the closure.
-    std::vector<std::uint16_t> frontier(seed_cells);
-    const std::uint64_t new2 = br.refine2 & ~br.done2;
-    if (new2) {
-      need(br, a, b, [&](auto&& at) {
+    run(b);
+    for (std::size_t i = 0; i < n; ++i) {
+      Visit& v = visits[i];
+      // Its crossing voxels start the closure.
+      if (v.new2) {
         for (int t = 0; t < 64; ++t) {
-          if (!(new2 >> t & 1)) continue;
+          if (!(v.new2 >> t & 1)) continue;
           const int o[3] = {(t / 16) * 2, ((t / 4) % 4) * 2, (t % 4) * 2};
-          for (int i = 0; i <= 2; ++i)
-            for (int j = 0; j <= 2; ++j)
-              for (int k = 0; k <= 2; ++k) at(o[0] + i, o[1] + j, o[2] + k);
+          for (int r = 0; r < 8; ++r)
+            v.frontier_cells.push_back(static_cast<std::uint16_t>(
+                cell_index(o[0] + (r & 1), o[1] + ((r >> 1) & 1), o[2] + (r >> 2))));
         }
-      });
-      run(b);
-      for (int t = 0; t < 64; ++t) {
-        if (!(new2 >> t & 1)) continue;
-        const int o[3] = {(t / 16) * 2, ((t / 4) % 4) * 2, (t % 4) * 2};
-        for (int r = 0; r < 8; ++r)
-          frontier.push_back(static_cast<std::uint16_t>(
-              cell_index(o[0] + (r & 1), o[1] + ((r >> 1) & 1), o[2] + (r >> 2))));
+        v.br->done2 |= v.new2;
       }
-      br.done2 |= new2;
+      close_start(v);
     }
-    close(br, a, frontier, b, out);
-    br.pack();
+    for (;;) {
+      bool any = false;
+      for (std::size_t i = 0; i < n; ++i)
+        if (visits[i].closing) any = close_need(visits[i], b) || any;
+      if (!any) break;
+      run(b);
+      for (std::size_t i = 0; i < n; ++i)
+        if (visits[i].closing) close_step(visits[i], out);
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      close_finish(visits[i]);
+      visits[i].br->pack();
+    }
+  }
+
+  // The 4-cells of level 4 whose samples call for refinement, dilated by one 4-cell: in this
+  // brick (seed4) or by requests to its neighbours.
+  void level4_flags(Visit& v, Outbox& out) {
+    Brick& br = *v.br;
+    for (int q = 0; q < 8; ++q)
+      if (flag_cube(br, (q & 1) * 4, ((q >> 1) & 1) * 4, (q >> 2) * 4, 4, false, v.real))
+        br.flagged4 |= static_cast<std::uint8_t>(1u << q);
+    for (int q = 0; q < 8; ++q) {
+      if (!(br.flagged4 >> q & 1)) continue;
+      const int c[3] = {q & 1, (q >> 1) & 1, q >> 2};
+      for (int dx = -1; dx <= 1; ++dx)
+        for (int dy = -1; dy <= 1; ++dy)
+          for (int dz = -1; dz <= 1; ++dz) {
+            const int n[3] = {c[0] + dx, c[1] + dy, c[2] + dz};
+            const int bo[3] = {floor_div(n[0], 2), floor_div(n[1], 2), floor_div(n[2], 2)};
+            const int lq =
+                (n[0] - 2 * bo[0]) | ((n[1] - 2 * bo[1]) << 1) | ((n[2] - 2 * bo[2]) << 2);
+            if (bo[0] == 0 && bo[1] == 0 && bo[2] == 0) {
+              v.seed4 |= static_cast<std::uint8_t>(1u << lq);
+            } else {
+              const int nb[3] = {br.at.x + bo[0], br.at.y + bo[1], br.at.z + bo[2]};
+              if (!in_range(nb)) continue;
+              deliver(v.a, br,
+                      {brick_key(nb[0], nb[1], nb[2]), static_cast<std::uint8_t>(1u << lq)}, out);
+            }
+          }
+    }
   }
 
   bool in_range(const int nb[3]) const {
@@ -422,10 +568,13 @@ struct BrickSampler::Impl {
   // The closure: a crossing cell whose face has a sign change continues into the cell across
   // that face, which is then examined too (in this brick, or by a request to the neighbour).
   // Done with bit sets over the 9^3 points (a cell is named by its lower corner), a whole
-  // frontier at a time.
-  void close(Brick& br, const Around& a, const std::vector<std::uint16_t>& cells, Batch& b,
-             Outbox& out) {
-    using Pts = Bits<kBrickPoints>;
+  // frontier at a time: close_need() asks for the corners of the frontier's cells,
+  // close_step() takes the next frontier from their signs, until none is left.
+  static constexpr int kStride[3] = {81, 9, 1};
+  static constexpr int kCorner[8] = {0, 81, 9, 90, 1, 82, 10, 91};
+
+  void close_start(Visit& v) const {
+    const Brick& br = *v.br;
     const int base[3] = {br.at.x * kBrick, br.at.y * kBrick, br.at.z * kBrick};
     // Cells that exist: local 0..7, globally -1 .. points - 1.
     int lo[3], hi[3];
@@ -441,104 +590,114 @@ struct BrickSampler::Impl {
           for (int k = 0; k < kBrick; ++k) all.set(point_index(i, j, k));
       return all;
     }();
-    Pts valid, frontier, visited, surface, sign;
+    v.valid = v.frontier = v.visited = v.surface = v.sign = Pts();
     if (lo[0] == 0 && lo[1] == 0 && lo[2] == 0 && hi[0] == kBrick - 1 && hi[1] == kBrick - 1 &&
         hi[2] == kBrick - 1) {
-      valid = kAllCells;
+      v.valid = kAllCells;
     } else {
       for (int i = lo[0]; i <= hi[0]; ++i)
         for (int j = lo[1]; j <= hi[1]; ++j)
-          for (int k = lo[2]; k <= hi[2]; ++k) valid.set(point_index(i, j, k));
+          for (int k = lo[2]; k <= hi[2]; ++k) v.valid.set(point_index(i, j, k));
     }
     auto to_point = [](int c) { return point_index(c / 64, (c / 8) % 8, c % 8); };
     for (int w = 0; w < kBrickCells / 64; ++w) {
       for (std::uint64_t bits = br.visited.w[w]; bits; bits &= bits - 1)
-        visited.set(to_point(w * 64 + __builtin_ctzll(bits)));
+        v.visited.set(to_point(w * 64 + __builtin_ctzll(bits)));
       for (std::uint64_t bits = br.surface.w[w]; bits; bits &= bits - 1)
-        surface.set(to_point(w * 64 + __builtin_ctzll(bits)));
+        v.surface.set(to_point(w * 64 + __builtin_ctzll(bits)));
     }
-    for (std::uint16_t c : cells) frontier.set(to_point(c));
+    for (std::uint16_t c : v.frontier_cells) v.frontier.set(to_point(c));
     for (int w = 0; w < Pts::kWords; ++w)
       for (std::uint64_t bits = br.known.w[w]; bits; bits &= bits - 1) {
         const int p = w * 64 + __builtin_ctzll(bits);
-        if (br.get(p) <= 0) sign.set(p);
+        if (br.get(p) <= 0) v.sign.set(p);
       }
-    constexpr int kStride[3] = {81, 9, 1};
-    static const int kCorner[8] = {0, 81, 9, 90, 1, 82, 10, 91};
-    std::vector<int> queued;
-    for (;;) {
-      frontier = frontier & valid & ~visited;
-      if (!frontier.any()) break;
-      visited = visited | frontier;
-      // The corners of the frontier's cells.
-      Pts corners;
-      for (int d = 0; d < 8; ++d) corners = corners | shifted(frontier, -kCorner[d]);
-      corners = corners & ~br.known;
-      queued.clear();
-      need(br, a, b, [&](auto&& at) {
-        for (int w = 0; w < Pts::kWords; ++w)
-          for (std::uint64_t bits = corners.w[w]; bits; bits &= bits - 1) {
-            const int p = w * 64 + __builtin_ctzll(bits);
-            queued.push_back(p);
-            at(p / 81, (p / 9) % 9, p % 9);
-          }
-      });
-      run(b);
-      for (int p : queued)
-        if (br.get(p) <= 0) sign.set(p);
-      // Crossing cells: corners of both signs.
-      Pts any_in, all_in = frontier;
-      Pts corner_sign[8];
-      for (int d = 0; d < 8; ++d) {
-        corner_sign[d] = shifted(sign, kCorner[d]);
-        any_in = any_in | corner_sign[d];
-        all_in = all_in & corner_sign[d];
-      }
-      const Pts crossing = frontier & any_in & ~all_in;
-      surface = surface | crossing;
-      // Across faces with a sign change: the next frontier, or requests to the neighbours.
-      Pts next;
-      for (int axis = 0; axis < 3; ++axis)
-        for (int t = 0; t < 2; ++t) {
-          Pts f_any, f_all = crossing;
-          for (int d = 0; d < 8; ++d) {
-            if (((d >> axis) & 1) != t) continue;
-            f_any = f_any | corner_sign[d];
-            f_all = f_all & corner_sign[d];
-          }
-          const Pts go = crossing & f_any & ~f_all;
-          if (!go.any()) continue;
-          next = next | shifted(go, t ? -kStride[axis] : kStride[axis]);
-          // Cells on the brick's face go to the neighbour.
-          for (int w = 0; w < Pts::kWords; ++w)
-            for (std::uint64_t bits = go.w[w]; bits; bits &= bits - 1) {
-              const int p = w * 64 + __builtin_ctzll(bits);
-              int n[3] = {p / 81, (p / 9) % 9, p % 9};
-              if (n[axis] != (t ? kBrick - 1 : 0)) continue;
-              const int gn = base[axis] + n[axis] + (t ? 1 : -1);
-              if (gn < -1 || gn >= geo.points[axis]) continue;
-              int nb[3] = {br.at.x, br.at.y, br.at.z};
-              nb[axis] += t ? 1 : -1;
-              n[axis] = t ? 0 : kBrick - 1;
-              const std::uint16_t nc = static_cast<std::uint16_t>(cell_index(n[0], n[1], n[2]));
-              // A neighbour that has looked at the cell needs no request.
-              const Brick* known = a.n[(nb[0] - br.at.x + 1) * 9 + (nb[1] - br.at.y + 1) * 3 +
-                                       (nb[2] - br.at.z + 1)];
-              if (known && known->visited.test(nc)) continue;
-              Request r{brick_key(nb[0], nb[1], nb[2])};
-              r.cell = nc;
-              deliver(a, br, r, out);
-            }
-        }
-      frontier = next;
+    v.closing = true;
+  }
+
+  // The corners of the frontier's cells that are not known yet, queued; false when the closure
+  // of the brick is complete.
+  bool close_need(Visit& v, Batch& b) const {
+    Brick& br = *v.br;
+    v.frontier = v.frontier & v.valid & ~v.visited;
+    if (!v.frontier.any()) {
+      v.closing = false;
+      return false;
     }
-    // Back to cell numbering.
+    v.visited = v.visited | v.frontier;
+    Pts corners;
+    for (int d = 0; d < 8; ++d) corners = corners | shifted(v.frontier, -kCorner[d]);
+    corners = corners & ~br.known;
+    v.queued.clear();
+    for (int w = 0; w < Pts::kWords; ++w)
+      for (std::uint64_t bits = corners.w[w]; bits; bits &= bits - 1)
+        v.queued.push_back(w * 64 + __builtin_ctzll(bits));
+    need_mask(br, v.a, corners, b, v.real);
+    return true;
+  }
+
+  // With the frontier's corners known: its crossing cells, and across their faces with a sign
+  // change the next frontier, or requests to the neighbours.
+  void close_step(Visit& v, Outbox& out) const {
+    const Brick& br = *v.br;
+    const int base[3] = {br.at.x * kBrick, br.at.y * kBrick, br.at.z * kBrick};
+    for (int p : v.queued)
+      if (br.get(p) <= 0) v.sign.set(p);
+    // Crossing cells: corners of both signs.
+    Pts any_in, all_in = v.frontier;
+    Pts corner_sign[8];
+    for (int d = 0; d < 8; ++d) {
+      corner_sign[d] = shifted(v.sign, kCorner[d]);
+      any_in = any_in | corner_sign[d];
+      all_in = all_in & corner_sign[d];
+    }
+    const Pts crossing = v.frontier & any_in & ~all_in;
+    v.surface = v.surface | crossing;
+    Pts next;
+    for (int axis = 0; axis < 3; ++axis)
+      for (int t = 0; t < 2; ++t) {
+        Pts f_any, f_all = crossing;
+        for (int d = 0; d < 8; ++d) {
+          if (((d >> axis) & 1) != t) continue;
+          f_any = f_any | corner_sign[d];
+          f_all = f_all & corner_sign[d];
+        }
+        const Pts go = crossing & f_any & ~f_all;
+        if (!go.any()) continue;
+        next = next | shifted(go, t ? -kStride[axis] : kStride[axis]);
+        // Cells on the brick's face go to the neighbour.
+        for (int w = 0; w < Pts::kWords; ++w)
+          for (std::uint64_t bits = go.w[w]; bits; bits &= bits - 1) {
+            const int p = w * 64 + __builtin_ctzll(bits);
+            int n[3] = {p / 81, (p / 9) % 9, p % 9};
+            if (n[axis] != (t ? kBrick - 1 : 0)) continue;
+            const int gn = base[axis] + n[axis] + (t ? 1 : -1);
+            if (gn < -1 || gn >= geo.points[axis]) continue;
+            int nb[3] = {br.at.x, br.at.y, br.at.z};
+            nb[axis] += t ? 1 : -1;
+            n[axis] = t ? 0 : kBrick - 1;
+            const std::uint16_t nc = static_cast<std::uint16_t>(cell_index(n[0], n[1], n[2]));
+            // A neighbour that has looked at the cell needs no request.
+            const Brick* known = v.a.n[(nb[0] - br.at.x + 1) * 9 + (nb[1] - br.at.y + 1) * 3 +
+                                       (nb[2] - br.at.z + 1)];
+            if (known && known->visited.test(nc)) continue;
+            Request r{brick_key(nb[0], nb[1], nb[2])};
+            r.cell = nc;
+            deliver(v.a, br, r, out);
+          }
+      }
+    v.frontier = next;
+  }
+
+  // Back to cell numbering.
+  static void close_finish(Visit& v) {
+    Brick& br = *v.br;
     for (int w = 0; w < Pts::kWords; ++w) {
-      for (std::uint64_t bits = visited.w[w]; bits; bits &= bits - 1) {
+      for (std::uint64_t bits = v.visited.w[w]; bits; bits &= bits - 1) {
         const int p = w * 64 + __builtin_ctzll(bits);
         br.visited.set(cell_index(p / 81, (p / 9) % 9, p % 9));
       }
-      for (std::uint64_t bits = surface.w[w]; bits; bits &= bits - 1) {
+      for (std::uint64_t bits = v.surface.w[w]; bits; bits &= bits - 1) {
         const int p = w * 64 + __builtin_ctzll(bits);
         br.surface.set(cell_index(p / 81, (p / 9) % 9, p % 9));
       }
@@ -726,9 +885,9 @@ BrickList BrickSampler::run() {
   // is tested against); the sparse path shares points between neighbours.
   if (!opts_.dense && std::max({P[0], P[1], P[2]}) > 2 * kCoarse) im.map = &bricks;
   im.dist = dist;
-  // Runs f(n, batch) for every brick of `keys`, in eight classes by coordinate parity (see
-  // Impl::need), each class in parallel; a distributed run copies the changed bricks to the
-  // neighbouring ranks after each class.
+  // Runs f(indices, count, batch) for groups of the bricks of `keys`, in eight classes by
+  // coordinate parity (see Impl::need), each class in parallel; a distributed run copies the
+  // changed bricks to the neighbouring ranks after each class.
   auto by_class = [&](const std::vector<std::uint64_t>& keys, auto&& f) {
     std::vector<std::size_t> cls[8];
     for (std::size_t n = 0; n < keys.size(); ++n) {
@@ -736,11 +895,15 @@ BrickList BrickSampler::run() {
       cls[(c.x & 1) | ((c.y & 1) << 1) | ((c.z & 1) << 2)].push_back(n);
     }
     for (const auto& members : cls) {
-      tbb::parallel_for(std::size_t{0}, members.size(), [&](std::size_t i) {
-        im.check_cancel();
-        thread_local Batch b;
-        f(members[i], b);
-      });
+      tbb::parallel_for(
+          tbb::blocked_range<std::size_t>(0, members.size(), kGroup),
+          [&](const tbb::blocked_range<std::size_t>& r) {
+            im.check_cancel();
+            thread_local Batch b;
+            for (std::size_t i = r.begin(); i < r.end(); i += kGroup)
+              f(members.data() + i, std::min(kGroup, r.end() - i), b);
+          },
+          tbb::simple_partitioner());
       if (dist) {
         std::vector<Brick*> changed;
         for (std::size_t n : members) changed.push_back(bricks.find(keys[n])->second.get());
@@ -907,8 +1070,13 @@ BrickList BrickSampler::run() {
     candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
     for (std::uint64_t k : candidates) get(k);
     std::vector<char> hit(candidates.size(), 0);
-    by_class(candidates, [&](std::size_t n, Batch& b) {
-      hit[n] = im.flag8(*bricks.find(candidates[n])->second, b);
+    by_class(candidates, [&](const std::size_t* n, std::size_t count, Batch& b) {
+      Brick* group[kGroup];
+      char h[kGroup];
+      for (std::size_t i = 0; i < count; ++i)
+        group[i] = bricks.find(candidates[n[i]])->second.get();
+      im.flag8(group, count, b, h);
+      for (std::size_t i = 0; i < count; ++i) hit[n[i]] = h[i];
     });
     std::vector<std::uint64_t> hits;
     for (std::size_t n = 0; n < candidates.size(); ++n)
@@ -966,11 +1134,15 @@ BrickList BrickSampler::run() {
                   [](const Brick* a, const Brick* b) { return a->key < b->key; });
         for (Brick* b : members) b->scheduled = false;
         tbb::enumerable_thread_specific<Outbox> outboxes;
-        tbb::parallel_for(std::size_t{0}, members.size(), [&](std::size_t n) {
-          im.check_cancel();
-          thread_local Batch b;
-          im.visit(*members[n], b, outboxes.local());
-        });
+        tbb::parallel_for(
+            tbb::blocked_range<std::size_t>(0, members.size(), kGroup),
+            [&](const tbb::blocked_range<std::size_t>& r) {
+              im.check_cancel();
+              thread_local Batch b;
+              for (std::size_t i = r.begin(); i < r.end(); i += kGroup)
+                im.visit(members.data() + i, std::min(kGroup, r.end() - i), b, outboxes.local());
+            },
+            tbb::simple_partitioner());
         visits += members.size();
         {
           std::lock_guard<std::mutex> lock(report_mutex);
