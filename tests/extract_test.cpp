@@ -346,7 +346,7 @@ TEST(Extract, SectionZEqualsZeroOfClassicJuliaIsTheComplexFilledJuliaSet) {
   EXPECT_EQ(missed, 0u) << "of " << boundary;
 }
 
-// An independent complex escape classifier (DESIGN.md's escape method on C).
+// An independent complex escape classifier (docs/design.md's escape method on C).
 template <typename Map>
 bool complex_escape_inside(Cx z, Map f, int n, double r) {
   if (std::abs(z) > r) return false;
