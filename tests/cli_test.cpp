@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -328,6 +329,46 @@ TEST_F(Cli, TheWrittenMeshDoesNotDependOnTheThreadCount) {
     const std::string a = read_text(work_ / "one.ply"), b = read_text(work_ / "two.ply");
     EXPECT_GT(a.size(), 1000u);
     EXPECT_TRUE(a == b) << "the files differ";
+  }
+}
+
+TEST_F(Cli, EveryFormatAndTheStatsDoNotDependOnTheThreadCount) {
+  // Every -o format, decimation included: the same bytes from one and two threads (for .gltf
+  // also its .bin, for .stl its parameter sidecar), and the same --stats but for the timings
+  // and the memory (the run's peak and the limit it was checked against).
+  auto stats_without_timings = [](json s) {
+    s.erase("timings");
+    s.erase("peak_rss_bytes");
+    s["estimate"].erase("memory_limit");
+    s["estimate"].erase("memory_limit_bytes");
+    return s;
+  };
+  fs::create_directories(work_ / "one");
+  fs::create_directories(work_ / "two");
+  for (const std::string ext : {"glb", "gltf", "obj", "ply", "stl", "3mf"}) {
+    SCOPED_TRACE(ext);
+    std::map<std::string, std::string> bytes[2];
+    json stats[2];
+    for (const int threads : {1, 2}) {
+      const std::string dir = threads == 1 ? "one" : "two";
+      const CliRun r =
+          run("mesh --preset classic-julia --resolution 96 --faces 20000 --quiet --threads " +
+              std::to_string(threads) + " -o " + dir + "/m." + ext + " --stats " + dir + "/s.json");
+      ASSERT_EQ(r.code, 0) << r.err;
+      for (const auto& entry : fs::directory_iterator(work_ / dir))
+        if (entry.path().filename() != "s.json")
+          bytes[threads - 1][entry.path().filename().string()] = read_text(entry.path());
+      stats[threads - 1] = stats_without_timings(json::parse(read_text(work_ / dir / "s.json")));
+      fs::remove_all(work_ / dir);
+      fs::create_directories(work_ / dir);
+    }
+    EXPECT_EQ(bytes[0].size(), ext == "gltf" || ext == "stl" ? 2u : 1u);
+    for (const auto& [name, content] : bytes[0]) {
+      EXPECT_GT(content.size(), 500u) << name;
+      EXPECT_TRUE(content == bytes[1][name]) << name << " differs";
+    }
+    EXPECT_EQ(stats[0]["faces"], 19996) << "the decimated mesh";
+    EXPECT_EQ(stats[0], stats[1]);
   }
 }
 

@@ -1,5 +1,6 @@
 // Round trips through every writer and reader, and the failure paths of write_mesh/read_mesh.
 #include <gtest/gtest.h>
+#include <zip.h>
 
 #include <cmath>
 #include <cstdio>
@@ -56,6 +57,24 @@ class TempDir {
 
 const char* kParams = R"({"formula": "h^2", "method": "escape", "iterations": 12,
   "bailout": 4.0, "constants": {"c": [0.1, -0.2, 0, 0]}, "note": "a \"quoted\"\nline"})";
+
+/// The decompressed entry `name` of the zip archive at `path` ("" when there is none).
+std::string unzip_entry(const std::string& path, const char* name) {
+  int err = 0;
+  zip_t* z = zip_open(path.c_str(), ZIP_RDONLY, &err);
+  if (!z) return "";
+  std::string out;
+  zip_stat_t st;
+  if (zip_stat(z, name, 0, &st) == 0) {
+    if (zip_file_t* f = zip_fopen(z, name, 0)) {
+      out.resize(st.size);
+      if (zip_fread(f, out.data(), st.size) != zip_int64_t(st.size)) out.clear();
+      zip_fclose(f);
+    }
+  }
+  zip_discard(z);
+  return out;
+}
 
 std::string write_text(const std::string& path, const std::string& text) {
   std::ofstream(path, std::ios::binary) << text;
@@ -180,6 +199,49 @@ TEST(Export, EveryFormatButStlRecordsTheParameters) {
       EXPECT_EQ(nlohmann::json::parse(params), expected) << ext << ": " << params;
     }
   }
+}
+
+TEST(Export, EveryFormatWritesTheSameBytesForTheSameMesh) {
+  // What is written depends only on the mesh, the parameters and the unit: 3MF's UUIDs, which
+  // lib3mf would draw at random, are made from the content.
+  TriMesh mesh = icosphere(2);
+  paint(mesh);
+  for (const auto& ext : kExtensions) {
+    SCOPED_TRACE(ext);
+    TempDir first, second;
+    qjulia::write_mesh(first.file("m" + ext), mesh, {kParams, "mm", {}});
+    qjulia::write_mesh(second.file("m" + ext), mesh, {kParams, "mm", {}});
+    for (const std::string& name : {"m" + ext, std::string("m.bin")}) {
+      if (name == "m.bin" && ext != ".gltf") continue;
+      const std::string a = io_fixtures::read_bytes(first.file(name));
+      EXPECT_GT(a.size(), 100u) << name;
+      EXPECT_TRUE(a == io_fixtures::read_bytes(second.file(name))) << name << " differs";
+    }
+  }
+}
+
+TEST(Export, A3mfNamesItsObjectsByItsContent) {
+  // The same content, the same UUIDs; another mesh or other parameters, other UUIDs.
+  auto uuids = [](const TriMesh& mesh, const std::string& params) {
+    TempDir dir;
+    qjulia::write_mesh(dir.file("m.3mf"), mesh, {params, "mm", {}});
+    const std::string model = unzip_entry(dir.file("m.3mf"), "3D/3dmodel.model");
+    std::set<std::string> found;
+    for (std::size_t at = model.find("UUID=\""); at != std::string::npos;
+         at = model.find("UUID=\"", at + 1))
+      found.insert(model.substr(at + 6, 36));
+    return found;
+  };
+  const std::set<std::string> a = uuids(icosphere(2), kParams);
+  ASSERT_EQ(a.size(), 3u) << "the object, the build and the build item";
+  for (const std::string& u : a) {
+    EXPECT_EQ(u[8], '-');
+    EXPECT_EQ(u[14], '8') << u << ": version 8";
+    EXPECT_NE(std::string("89ab").find(u[19]), std::string::npos) << u << ": variant 10";
+  }
+  EXPECT_EQ(uuids(icosphere(2), kParams), a);
+  EXPECT_NE(uuids(icosphere(1), kParams), a);
+  EXPECT_NE(uuids(icosphere(2), "{}"), a);
 }
 
 TEST(Export, GltfAssetExtrasIsTheParameterObjectAndGeneratorNamesQjulia) {

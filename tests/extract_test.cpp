@@ -346,7 +346,7 @@ TEST(Extract, SectionZEqualsZeroOfClassicJuliaIsTheComplexFilledJuliaSet) {
   EXPECT_EQ(missed, 0u) << "of " << boundary;
 }
 
-// An independent complex escape classifier (DESIGN.md's escape method on C).
+// An independent complex escape classifier (docs/design.md's escape method on C).
 template <typename Map>
 bool complex_escape_inside(Cx z, Map f, int n, double r) {
   if (std::abs(z) > r) return false;
@@ -464,6 +464,35 @@ TEST(Extract, NormalsAreEachVertexsFaceOrderSumOnAnyThreadCount) {
     for (std::size_t v = 0; v < serial.size(); ++v) differ += parallel[v] != serial[v];
     EXPECT_EQ(differ, 0u);
   }
+}
+
+TEST(Extract, ReportsItsProgressBrickByBrickAndStopsWhenAskedTo) {
+  // The fraction rises through the work, not from 0 straight to 1; returning false cancels.
+  Params p = preset("newton-cubic");
+  p.resolution = 96;
+  const SampledGrid grid = sample(p);
+  std::vector<double> seen;
+  ExtractOptions opts;
+  opts.progress = [&](double f) {
+    seen.push_back(f);
+    return true;
+  };
+  extract(grid, opts);
+  ASSERT_GE(seen.size(), 10u);
+  EXPECT_EQ(seen.back(), 1.0);
+  std::size_t inside = 0;
+  for (std::size_t i = 0; i < seen.size(); ++i) {
+    EXPECT_GE(seen[i], 0.0);
+    EXPECT_LE(seen[i], 1.0);
+    if (i > 0) {
+      EXPECT_GE(seen[i], seen[i - 1]) << "at report " << i;
+    }
+    inside += seen[i] > 0.1 && seen[i] < 0.9;
+  }
+  EXPECT_GE(inside, 5u) << "reports between 10% and 90%";
+  int calls = 0;
+  opts.progress = [&](double f) { return ++calls < 3 || f >= 1.0; };
+  EXPECT_THROW(extract(grid, opts), Cancelled);
 }
 
 TEST(Extract, SmallGridsAreSampledWhole) {

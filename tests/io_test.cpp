@@ -117,13 +117,47 @@ TEST(Validate, EveryFunctionThatTakesAMeshGivesTheSameVerdict) {
         {"render", [&] { qjulia::render(*m); }},
         {"printability", [&] { qjulia::printability(*m); }},
         {"thicken", [&] { qjulia::thicken(*m, thick); }},
-        {dir.file("m.ply"), [&] { qjulia::write_mesh(dir.file("m.ply"), *m); }}};
+        {dir.file("m.ply"), [&] { qjulia::write_mesh(dir.file("m.ply"), *m); }},
+        {"measure", [&] { qjulia::measure(*m); }},
+        {"face_components", [&] { qjulia::face_components(*m); }},
+        {"normals", [&] { qjulia::area_weighted_normals(*m); }},
+        {"normals",
+         [&] {
+           TriMesh copy = *m;
+           qjulia::compute_normals(copy);
+         }},
+        {"print",
+         [&] {
+           TriMesh copy = *m;
+           qjulia::scale_to_longest_side(copy, 10);
+         }},
+        {"self-intersections", [&] { qjulia::count_self_intersections(*m); }}};
     for (const auto& [name, call] : calls) {
       const std::string msg = refusal(call);
       EXPECT_EQ(msg.rfind(name, 0), 0u) << msg;
       EXPECT_TRUE(has(msg, expected)) << msg;
     }
   }
+}
+
+TEST(Validate, ComputeNormalsReplacesNormalsOfAnyCountAndKeepsThemOnAFailure) {
+  TriMesh m = fixtures::icosphere(1);
+  m.normals.assign(3, {1, 0, 0});  // stale: fewer than the vertices
+  qjulia::compute_normals(m);
+  EXPECT_EQ(m.normals, qjulia::area_weighted_normals(fixtures::icosphere(1)));
+  m.positions[0][0] = NAN;
+  m.normals.assign(3, {1, 0, 0});
+  EXPECT_THROW(qjulia::compute_normals(m), InvalidInput);
+  EXPECT_EQ(m.normals.size(), 3u);
+}
+
+TEST(Validate, FaceComponentsNumbersThemInTheOrderOfTheirFirstFace) {
+  TriMesh two = tetrahedron();
+  for (const auto& p : tetrahedron().positions) two.positions.push_back({p[0] + 5, p[1], p[2]});
+  two.triangles = {{4, 6, 5}, {0, 2, 1}, {4, 5, 7}, {0, 1, 3},
+                   {4, 7, 6}, {0, 3, 2}, {5, 6, 7}, {1, 2, 3}};
+  EXPECT_EQ(qjulia::face_components(two), (std::vector<std::uint32_t>{0, 1, 0, 1, 0, 1, 0, 1}));
+  EXPECT_TRUE(qjulia::face_components(TriMesh{}).empty());
 }
 
 // ------------------------------------------------------------------------ readers' policy

@@ -168,7 +168,7 @@ Quat eval(const Formula::Program& p, const Quat& h, const std::vector<Quat>& con
   return r[p.result];
 }
 
-// F of DESIGN.md in the arithmetic of Arith<kFused>: the reference the kernel is held to
+// F of docs/design.md in the arithmetic of Arith<kFused>: the reference the kernel is held to
 // (kFused = false, the scalar path's arithmetic), and the check of how well F is conditioned.
 template <bool kFused>
 double reference_field(const Params& p, double x, double y, double z) {

@@ -85,6 +85,7 @@ std::unique_ptr<PyMesh> mesh_from_arrays(const py::handle& vertices, const py::h
   };
   out->mesh.normals = optional_rows(normals, "normals");
   out->mesh.colors = optional_rows(colors, "colors");
+  validate_mesh(out->mesh, "Mesh");  // the check of every mesh that enters the library
   return out;
 }
 

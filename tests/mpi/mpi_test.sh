@@ -34,6 +34,7 @@ same_file newton-min-component ply --resolution 64 --min-component 0.001 --color
 same_file newton-faces ply --resolution 48 --faces 3000
 same_file newton-glb glb --resolution 48
 same_file sine-obj obj --preset sine-julia --resolution 64
+same_file newton-3mf 3mf --resolution 48
 
 # --stats: every rank's figures and the imbalance.
 mpi 2 mesh --resolution 48 --quiet -o "$work/s.ply" --stats "$work/s.json" >/dev/null

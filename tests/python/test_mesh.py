@@ -115,3 +115,7 @@ def test_mesh_from_arrays_checks_them():
         qjulia.Mesh(v, f.astype(np.float64))
     with pytest.raises(ValueError, match="colors: 3 rows for 4 vertices"):
         qjulia.Mesh(v, f, colors=np.zeros((3, 3)))
+    bad = v.copy()
+    bad[2, 1] = np.nan
+    with pytest.raises(ValueError, match="Mesh: vertex 2 has a non-finite position"):
+        qjulia.Mesh(bad, f)

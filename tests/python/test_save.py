@@ -25,7 +25,7 @@ def companions(path):
     return []
 
 
-@pytest.mark.parametrize("ext", ["glb", "gltf", "obj", "ply", "stl"])
+@pytest.mark.parametrize("ext", ["glb", "gltf", "obj", "ply", "stl", "3mf"])
 def test_save_writes_the_bytes_the_cli_writes(tmp_path, rosa, ext):
     ours, theirs = tmp_path / "ours", tmp_path / "cli"
     ours.mkdir()
@@ -39,7 +39,7 @@ def test_save_writes_the_bytes_the_cli_writes(tmp_path, rosa, ext):
 
 
 def test_save_3mf_equals_the_cli_mesh_and_parameters(tmp_path, rosa):
-    # A 3MF is a zip whose entries carry times: compare what it holds.
+    # What the 3MF holds, read back.
     rosa.save(tmp_path / "ours.3mf")
     run_cli("mesh", *ARGS, "--quiet", "-o", tmp_path / "cli.3mf")
     ours, cli = qjulia.load(tmp_path / "ours.3mf"), qjulia.load(tmp_path / "cli.3mf")

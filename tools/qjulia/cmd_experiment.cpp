@@ -9,7 +9,6 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
-#include <numeric>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -19,6 +18,8 @@
 #include "commands.h"
 #include "files.h"
 #include "qjulia/base/error.h"
+#include "qjulia/base/mesh.h"
+#include "qjulia/grid/sample.h"
 #include "qjulia/mesh/compare.h"
 #include "qjulia/pipeline/pipeline.h"
 #include "qjulia/render/contact_sheet.h"
@@ -120,11 +121,7 @@ std::optional<std::string> write_figure(const std::string& path,
   }
 }
 
-double voxel_size(const Params& p) {
-  double longest = 0;
-  for (int k = 0; k < 3; ++k) longest = std::max(longest, p.bounds.max[k] - p.bounds.min[k]);
-  return longest / p.resolution;
-}
+double voxel_size(const Params& p) { return grid_geometry(p).voxel; }
 
 std::string bounds_text(const Params& p) {
   std::string s = "[";
@@ -298,36 +295,34 @@ int run_table1(const Options& o) {
 // The faces of the components of `m` that stay off the box walls: the cut-off solid of h^2 + c
 // also holds the escaping exterior, whose surface is the box; its inner surface faces J.
 TriMesh inner_part(const TriMesh& m, const Params& p) {
-  std::vector<uint32_t> parent(m.positions.size());
-  std::iota(parent.begin(), parent.end(), 0u);
-  auto find = [&](uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  };
-  for (const auto& t : m.triangles) {
-    const uint32_t a = find(t[0]), b = find(t[1]), c = find(t[2]);
-    parent[b] = a;
-    parent[find(c)] = find(a);
-  }
+  const std::vector<uint32_t> component = face_components(m);
   const double eps = 0.5 * voxel_size(p);
-  std::vector<char> touches(m.positions.size(), 0);
-  for (uint32_t v = 0; v < m.positions.size(); ++v)
+  auto on_wall = [&](uint32_t v) {
     for (int k = 0; k < 3; ++k)
       if (m.positions[v][k] <= p.bounds.min[k] + eps || m.positions[v][k] >= p.bounds.max[k] - eps)
-        touches[find(v)] = 1;
+        return true;
+    return false;
+  };
+  std::vector<char> touches;
+  for (std::size_t f = 0; f < m.triangles.size(); ++f) {
+    if (component[f] >= touches.size()) touches.resize(component[f] + 1, 0);
+    for (uint32_t v : m.triangles[f])
+      if (on_wall(v)) touches[component[f]] = 1;
+  }
   TriMesh out;
   std::vector<uint32_t> remap(m.positions.size(), UINT32_MAX);
-  for (const auto& t : m.triangles) {
-    if (touches[find(t[0])]) continue;
-    std::array<uint32_t, 3> f;
+  for (std::size_t f = 0; f < m.triangles.size(); ++f) {
+    if (touches[component[f]]) continue;
+    const auto& t = m.triangles[f];
+    std::array<uint32_t, 3> face;
     for (int k = 0; k < 3; ++k) {
       if (remap[t[k]] == UINT32_MAX) {
         remap[t[k]] = static_cast<uint32_t>(out.positions.size());
         out.positions.push_back(m.positions[t[k]]);
       }
-      f[k] = remap[t[k]];
+      face[k] = remap[t[k]];
     }
-    out.triangles.push_back(f);
+    out.triangles.push_back(face);
   }
   return out;
 }

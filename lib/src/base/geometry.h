@@ -1,8 +1,8 @@
 #pragma once
 /// @file geometry.h
-/// The geometry kernel every stage shares: double-precision vector helpers, triangle area and
-/// signed volume, and the one point-to-triangle distance (used by the BVH, so by compare and by
-/// decimate's error measurement).
+/// The geometry kernel every stage shares: double-precision vector helpers (the renderer's too),
+/// triangle area and signed volume, area-weighted normals, and the one point-to-triangle
+/// distance (used by the BVH, so by compare and by decimate's error measurement).
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -17,13 +17,17 @@ struct Vec3d {
   double& operator[](int k) { return v[k]; }
 };
 
-inline Vec3d to_vec3d(const std::array<float, 3>& p) { return {p[0], p[1], p[2]}; }
+template <class T>
+Vec3d to_vec3d(const std::array<T, 3>& p) {
+  return {double(p[0]), double(p[1]), double(p[2])};
+}
 inline Vec3d operator+(const Vec3d& a, const Vec3d& b) {
   return {a[0] + b[0], a[1] + b[1], a[2] + b[2]};
 }
 inline Vec3d operator-(const Vec3d& a, const Vec3d& b) {
   return {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
 }
+inline Vec3d operator-(const Vec3d& a) { return {-a[0], -a[1], -a[2]}; }
 inline Vec3d operator*(double s, const Vec3d& a) { return {s * a[0], s * a[1], s * a[2]}; }
 inline double dot(const Vec3d& a, const Vec3d& b) {
   return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
@@ -32,6 +36,11 @@ inline Vec3d cross(const Vec3d& a, const Vec3d& b) {
   return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
 }
 inline double length(const Vec3d& a) { return std::sqrt(dot(a, a)); }
+/// `a` divided by its length; (0, 0, 0) when it has none.
+inline Vec3d normalized(const Vec3d& a) {
+  const double n = length(a);
+  return n > 0 ? Vec3d{a[0] / n, a[1] / n, a[2] / n} : Vec3d{0, 0, 0};
+}
 
 /// Area of the triangle abc.
 inline double triangle_area(const Vec3d& a, const Vec3d& b, const Vec3d& c) {

@@ -12,6 +12,7 @@
 #include "base/mesh_check.h"
 #include "base/union_find.h"
 #include "qjulia/base/progress.h"
+#include "qjulia/base/validate.h"
 
 namespace qjulia {
 namespace {
@@ -162,6 +163,7 @@ std::vector<ComponentMeasure> components(const TriMesh& mesh, const std::vector<
 }  // namespace
 
 MeshMeasure measure(const TriMesh& mesh, const CancelToken* cancel) {
+  validate_mesh(mesh, "measure");
   MeshMeasure m;
   m.faces = mesh.triangles.size();
   if (m.faces == 0) return m;
@@ -189,7 +191,15 @@ MeshMeasure measure(const TriMesh& mesh, const CancelToken* cancel) {
   return m;
 }
 
+std::vector<std::uint32_t> face_components(const TriMesh& mesh) {
+  validate_mesh(mesh, "face_components");
+  std::vector<std::uint32_t> out;
+  detail::face_components(mesh, out);
+  return out;
+}
+
 std::vector<std::array<float, 3>> area_weighted_normals(const TriMesh& mesh) {
+  validate_mesh(mesh, "normals");
   // Summed in the output itself (float: a vertex has a few faces, and a unit normal needs no
   // more), each vertex's faces in face order, so the result does not depend on threads: the face
   // normals of a block are made in parallel, then each thread adds them to its own vertices (64
@@ -224,6 +234,17 @@ std::vector<std::array<float, 3>> area_weighted_normals(const TriMesh& mesh) {
   return normals;
 }
 
-void compute_normals(TriMesh& mesh) { mesh.normals = area_weighted_normals(mesh); }
+void compute_normals(TriMesh& mesh) {
+  // The normals it has (of any count) are replaced, so they are not checked; on a failure they
+  // stay.
+  std::vector<std::array<float, 3>> old = std::move(mesh.normals);
+  mesh.normals.clear();
+  try {
+    mesh.normals = area_weighted_normals(mesh);
+  } catch (...) {
+    mesh.normals = std::move(old);
+    throw;
+  }
+}
 
 }  // namespace qjulia

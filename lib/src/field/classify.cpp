@@ -6,6 +6,7 @@
 
 #include "field/kernel.h"
 #include "field/program.h"
+#include "field/validated.h"
 #include "qjulia/base/error.h"
 #include "qjulia/grid/sample.h"
 
@@ -32,7 +33,7 @@ float clamp_field(double f) {
 }  // namespace
 
 Classifier::Classifier(const Params& params) : params_(params) {
-  validate(params_);
+  formula_ = detail::validate_and_compile(params_);  // the names below, in the same order
   std::vector<std::string> names;
   for (const auto& [name, value] : params_.constants) {
     names.push_back(name);
@@ -49,7 +50,6 @@ Classifier::Classifier(const Params& params) : params_(params) {
   }
   if (constants_.size() > kMaxConstants)
     throw InvalidInput("parameters: at most " + std::to_string(kMaxConstants) + " constants");
-  formula_ = Formula::compile(params_.formula, names);
   slice_ = params_.slice.resolved();
 
   const Formula::Program& program = formula_.program();
@@ -276,8 +276,8 @@ std::uint64_t Solid::values(const double* x, const double* y, const double* z, s
     for (std::size_t i = 0; i < n && all_in_box; ++i)
       all_in_box = constraint(x[i], y[i], z[i]) <= 0;
     if (all_in_box) {
-      const std::uint64_t steps = root ? classifier_.root_field(x, y, z, n, out)
-                                       : classifier_.field(x, y, z, n, out);
+      const std::uint64_t steps =
+          root ? classifier_.root_field(x, y, z, n, out) : classifier_.field(x, y, z, n, out);
       for (std::size_t i = 0; i < n; ++i)
         out[i] = std::max(out[i], static_cast<float>(constraint(x[i], y[i], z[i]) / voxel_));
       return steps;

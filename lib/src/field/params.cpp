@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "field/presets.h"
+#include "field/validated.h"
 #include "qjulia/base/error.h"
 #include "qjulia/field/formula.h"
 
@@ -185,7 +186,9 @@ std::string to_string(const ValueRange& range) {
   return number_text(range.min) + ".." + number_text(range.max);
 }
 
-void validate(const Params& p) {
+void validate(const Params& p) { detail::validate_and_compile(p); }
+
+Formula detail::validate_and_compile(const Params& p) {
   const std::string src = "parameters";
   check_range(p.iterations, kIterationsRange, src, "iterations");
   check_range(p.bailout, kBailoutRange, src, "bailout");
@@ -235,7 +238,7 @@ void validate(const Params& p) {
   }
   if (p.mode == Mode::kMandelbrot && !p.constant("c")) names.push_back("c");
   check_range(p.start, kCoordinateRange, src, "start");
-  Formula::compile(p.formula, names);  // throws InvalidInput naming the column
+  Formula formula = Formula::compile(p.formula, names);  // throws InvalidInput naming the column
   for (const auto& c : p.mesh.clip) {
     for (double v : {c.normal[0], c.normal[1], c.normal[2], c.d})
       check_range(v, kCoordinateRange, src, "mesh.clip");
@@ -249,6 +252,7 @@ void validate(const Params& p) {
   if (p.print.size_mm) check_range(*p.print.size_mm, kLengthMmRange, src, "print.size_mm");
   if (p.print.min_thickness_mm)
     check_range(*p.print.min_thickness_mm, kLengthMmRange, src, "print.min_thickness_mm");
+  return formula;
 }
 
 Params parse_params(const std::string& json_text, const std::string& source) {

@@ -1,6 +1,6 @@
 #pragma once
 // The compiled form of a formula: a flat list of register operations. formula.cpp builds it and
-// runs it one point at a time (the scalar reference); formula_batch.cpp runs it over batches of
+// runs it one point at a time (the scalar reference); kernel.cpp runs it over batches of
 // points in SIMD lanes. Both read exactly this description, so they evaluate the same program.
 #include <cstdint>
 #include <string>

@@ -1,7 +1,9 @@
 // STL. Writer: binary, an 80-byte header naming qjulia and the unit, one face normal per
 // triangle. Reader: binary or ASCII, corners welded by position into an indexed mesh.
+#include <cmath>
 #include <cstring>
 
+#include "base/geometry.h"
 #include "io/formats.h"
 #include "io/text.h"
 #include "qjulia/base/atomic_file.h"
@@ -18,11 +20,8 @@ constexpr std::size_t kRecord = kStlFaceRecord;  // normal, three corners, 16-bi
 /// Unit normal of triangle (a, b, c) by the cross product, or zero when it has no area.
 std::array<float, 3> face_normal(const std::array<float, 3>& a, const std::array<float, 3>& b,
                                  const std::array<float, 3>& c) {
-  const double u[3] = {double(b[0]) - a[0], double(b[1]) - a[1], double(b[2]) - a[2]};
-  const double v[3] = {double(c[0]) - a[0], double(c[1]) - a[1], double(c[2]) - a[2]};
-  const double n[3] = {u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
-                       u[0] * v[1] - u[1] * v[0]};
-  const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+  const Vec3d n = cross(to_vec3d(b) - to_vec3d(a), to_vec3d(c) - to_vec3d(a));
+  const double len = length(n);
   if (!(len > 0) || !std::isfinite(len)) return {0, 0, 0};
   return {float(n[0] / len), float(n[1] / len), float(n[2] / len)};
 }

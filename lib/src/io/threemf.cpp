@@ -4,9 +4,11 @@
 #include <Model/COM/NMR_DLLInterfaces.h>
 #include <zip.h>
 
+#include <cstdint>
 #include <cstring>
 #include <memory>
 
+#include "base/hash.h"
 #include "io/formats.h"
 #include "qjulia/base/atomic_file.h"
 #include "qjulia/base/error.h"
@@ -72,6 +74,42 @@ bool keep_going(int, ProgressIdentifier, void* token) {
   return !static_cast<const CancelToken*>(token)->requested();
 }
 
+/// A UUID (RFC 9562 version 8, "custom") made from `h` and `salt`: 3MF names the object, the
+/// build and the build item by UUIDs, which lib3mf would otherwise draw at random, so the same
+/// mesh and parameters would give different bytes on every run.
+std::string content_uuid(std::uint64_t h, std::uint64_t salt) {
+  const std::uint64_t hi = splitmix64(h ^ splitmix64(salt));
+  const std::uint64_t lo = splitmix64(hi ^ h);
+  unsigned char b[16];
+  for (int i = 0; i < 8; ++i) {
+    b[i] = static_cast<unsigned char>(hi >> (56 - 8 * i));
+    b[8 + i] = static_cast<unsigned char>(lo >> (56 - 8 * i));
+  }
+  b[6] = static_cast<unsigned char>((b[6] & 0x0f) | 0x80);  // version 8
+  b[8] = static_cast<unsigned char>((b[8] & 0x3f) | 0x80);  // variant 10
+  static const char kHex[] = "0123456789abcdef";
+  std::string out;
+  for (int i = 0; i < 16; ++i) {
+    if (i == 4 || i == 6 || i == 8 || i == 10) out += '-';
+    out += kHex[b[i] >> 4];
+    out += kHex[b[i] & 15];
+  }
+  return out;
+}
+
+/// A hash of everything the file holds: the same mesh, parameters and unit give the same UUIDs
+/// (and so the same bytes), any change gives others.
+std::uint64_t content_hash(const ExportData& data) {
+  std::uint64_t h = 0;
+  h = hash_bytes(h, data.generator.data(), data.generator.size());
+  h = hash_bytes(h, data.unit.data(), data.unit.size());
+  h = hash_bytes(h, data.params_json.data(), data.params_json.size());
+  h = hash_bytes(h, data.mesh.positions.data(), data.mesh.positions.size() * sizeof(float) * 3);
+  h = hash_bytes(h, data.mesh.triangles.data(),
+                 data.mesh.triangles.size() * sizeof(std::uint32_t) * 3);
+  return h;
+}
+
 /// A model with one mesh object, the build item, and the metadata.
 void build_model(const std::string& path, const ExportData& data, Handle& model) {
   const TriMesh& mesh = data.mesh;
@@ -97,6 +135,13 @@ void build_model(const std::string& path, const ExportData& data, Handle& model)
         object.get(), "setting the geometry");
   check(lib3mf_model_addbuilditem(model.get(), object.get(), nullptr, item.out()), model.get(),
         "adding the build item");
+  const std::uint64_t h = content_hash(data);
+  check(lib3mf_object_setuuidutf8(object.get(), content_uuid(h, 1).c_str()), object.get(),
+        "naming the mesh by its UUID");
+  check(lib3mf_model_setbuilduuidutf8(model.get(), content_uuid(h, 2).c_str()), model.get(),
+        "naming the build by its UUID");
+  check(lib3mf_builditem_setuuidutf8(item.get(), content_uuid(h, 3).c_str()), item.get(),
+        "naming the build item by its UUID");
   check(lib3mf_model_addmetadatautf8(model.get(), "Application", data.generator.c_str()),
         model.get(), "adding metadata");
   if (!data.params_json.empty()) {

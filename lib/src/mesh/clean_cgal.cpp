@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "base/mesh_check.h"
+#include "qjulia/base/validate.h"
 #include "qjulia/mesh/clean.h"
 
 namespace qjulia {
@@ -70,6 +71,7 @@ std::vector<std::pair<uint32_t, uint32_t>> detail::self_intersecting_face_pairs(
 }
 
 std::size_t count_self_intersections(const TriMesh& mesh) {
+  validate_mesh(mesh, "self-intersections");
   std::vector<uint32_t> face_of;
   Surface sm = to_surface(mesh, face_of);
   std::size_t count = 0;

@@ -19,6 +19,7 @@
 
 #include "base/bvh.h"
 #include "base/geometry.h"
+#include "base/hash.h"
 #include "base/mesh_json.h"
 #include "mesh/stage_progress.h"
 #include "qjulia/base/error.h"
@@ -30,14 +31,10 @@ namespace {
 
 using Point = std::array<float, 3>;
 
-// splitmix64: a counter-based generator, so sample i is the same whatever thread makes it.
-inline std::uint64_t mix(std::uint64_t x) {
-  x += 0x9e3779b97f4a7c15ULL;
-  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ULL;
-  x = (x ^ (x >> 27)) * 0x94d049bb133111ebULL;
-  return x ^ (x >> 31);
+// A counter-based generator (splitmix64), so sample i is the same whatever thread makes it.
+inline double unit(std::uint64_t x) {
+  return (detail::splitmix64(x) >> 11) * (1.0 / 9007199254740992.0);
 }
-inline double unit(std::uint64_t x) { return (mix(x) >> 11) * (1.0 / 9007199254740992.0); }
 
 bool valid_face(const TriMesh& m, const std::array<uint32_t, 3>& t) {
   const std::size_t n = m.positions.size();

@@ -15,6 +15,7 @@ namespace qjulia {
 double scale_to_longest_side(TriMesh& mesh, double length) {
   if (!(length > 0) || !std::isfinite(length))
     throw InvalidInput("print: size must be a positive length, got " + std::to_string(length));
+  validate_mesh(mesh, "print");
   if (mesh.positions.empty() || mesh.triangles.empty())
     throw InvalidInput("print: cannot scale an empty mesh");
   double lo[3], hi[3];

@@ -13,6 +13,7 @@
 #include <cmath>
 #include <string>
 
+#include "base/geometry.h"
 #include "qjulia/base/error.h"
 #include "qjulia/base/validate.h"
 #include "render/raster.h"
@@ -24,23 +25,9 @@ using detail::Framebuffer;
 using detail::kNoFace;
 using detail::kSubOne;
 using detail::ScreenVertex;
-using Vec3 = std::array<double, 3>;
+using Vec3 = detail::Vec3d;
 using Mat3 = std::array<Vec3, 3>;
-
-double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-Vec3 sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
-Vec3 cross(const Vec3& a, const Vec3& b) {
-  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
-}
-Vec3 normalized(const Vec3& v) {
-  const double n = std::sqrt(dot(v, v));
-  return n > 0 ? Vec3{v[0] / n, v[1] / n, v[2] / n} : Vec3{0, 0, 0};
-}
-Vec3 negated(const Vec3& v) { return {-v[0], -v[1], -v[2]}; }
-template <typename T>
-Vec3 to_vec(const std::array<T, 3>& a) {
-  return {double(a[0]), double(a[1]), double(a[2])};
-}
+using detail::to_vec3d;
 
 bool finite3(const Vec3& v) {
   return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]);
@@ -69,9 +56,9 @@ void validate_options(const RenderOptions& o) {
   for (double c : o.color) require_in(c, kColorComponentRange, "color components");
   for (double r : o.rotate_deg) require_in(r, kRotationRange, "rotation angles (degrees)");
   for (std::size_t i = 0; i < o.lights.size(); ++i) {
-    const Vec3& l = o.lights[i];
     const std::string name = "light " + std::to_string(i + 1);
-    for (double c : l) require_in(c, kLightComponentRange, name + " components");
+    for (double c : o.lights[i]) require_in(c, kLightComponentRange, name + " components");
+    const Vec3 l = to_vec3d(o.lights[i]);
     require(dot(l, l) > 0, name + " must be a non-zero direction");
   }
 }
@@ -165,7 +152,7 @@ Projection project(const TriMesh& mesh, const RenderOptions& opts) {
   p.sh = opts.height * opts.supersample;
   p.view.resize(nv);
   parallel_for_vertices(nv, [&](std::size_t v) {
-    p.view[v] = rotate_by(p.rotation, sub(to_vec(mesh.positions[v]), centre));
+    p.view[v] = rotate_by(p.rotation, to_vec3d(mesh.positions[v]) - centre);
   });
   const Frame f = fit_frame(p.view, used, opts);
   p.screen.resize(nv);
@@ -187,7 +174,7 @@ std::vector<Vec3> view_normals(const TriMesh& mesh, const Mat3& rotation) {
   const auto& source = mesh.normals.empty() ? computed : mesh.normals;
   std::vector<Vec3> normals(source.size());
   parallel_for_vertices(source.size(), [&](std::size_t v) {
-    const Vec3 n = to_vec(source[v]);
+    const Vec3 n = to_vec3d(source[v]);
     normals[v] = finite3(n) ? normalized(rotate_by(rotation, n)) : Vec3{0, 0, 0};
   });
   return normals;
@@ -204,8 +191,8 @@ class SurfaceShader {
                 const Framebuffer& fb)
       : mesh_(mesh), opts_(opts), p_(p), fb_(fb) {
     if (opts.shading != Shading::kSimple) normals_ = view_normals(mesh, p.rotation);
-    if (opts.lights.empty()) lights_.push_back(default_light());
-    for (const Vec3& l : opts.lights) lights_.push_back(normalized(l));
+    if (opts.lights.empty()) lights_.push_back(to_vec3d(default_light()));
+    for (const auto& l : opts.lights) lights_.push_back(normalized(to_vec3d(l)));
     vertex_colors_ = opts.use_vertex_colors && !mesh.colors.empty();
     for (int k = 0; k < 3; ++k) background_[k] = opts.background[k] / 255.0;
   }
@@ -229,20 +216,20 @@ class SurfaceShader {
                   w[0] * va[2] + w[1] * vb[2] + wc * vc[2]};
     };
     const std::vector<Vec3>& view = p_.view;
-    const Vec3 face_n = normalized(cross(sub(view[t[1]], view[t[0]]), sub(view[t[2]], view[t[0]])));
+    const Vec3 face_n = normalized(cross(view[t[1]] - view[t[0]], view[t[2]] - view[t[0]]));
     Vec3 n = face_n;
     if (!normals_.empty()) {
       n = normalized(blend(normals_[t[0]], normals_[t[1]], normals_[t[2]]));
       if (dot(n, n) == 0) n = face_n;
       // Normals that disagree with the winding (inverted normals in a file) follow the face.
-      if (dot(n, face_n) < 0) n = negated(n);
+      if (dot(n, face_n) < 0) n = -n;
     }
-    if (face_n[2] < 0) n = negated(n);  // seen from behind: light the visible side
-    Vec3 albedo = opts_.color;
+    if (face_n[2] < 0) n = -n;  // seen from behind: light the visible side
+    Vec3 albedo = to_vec3d(opts_.color);
     if (vertex_colors_) {
-      albedo =
-          blend(to_vec(mesh_.colors[t[0]]), to_vec(mesh_.colors[t[1]]), to_vec(mesh_.colors[t[2]]));
-      for (double& v : albedo) v = std::clamp(v, 0.0, 1.0);
+      albedo = blend(to_vec3d(mesh_.colors[t[0]]), to_vec3d(mesh_.colors[t[1]]),
+                     to_vec3d(mesh_.colors[t[2]]));
+      for (int k = 0; k < 3; ++k) albedo[k] = std::clamp(albedo[k], 0.0, 1.0);
     }
     const Vec3 s = shade(n, albedo);
     return {std::clamp(s[0], 0.0, 1.0), std::clamp(s[1], 0.0, 1.0), std::clamp(s[2], 0.0, 1.0)};
@@ -305,7 +292,10 @@ void resolve(const Framebuffer& fb, const SurfaceShader& shader, const RenderOpt
 
 void check_render_options(const RenderOptions& opts) { validate_options(opts); }
 
-std::array<double, 3> default_light() { return normalized({-0.5, 0.6, 1.0}); }
+std::array<double, 3> default_light() {
+  const Vec3 l = normalized(Vec3{-0.5, 0.6, 1.0});
+  return {l[0], l[1], l[2]};
+}
 
 Image render(const TriMesh& mesh, const RenderOptions& opts) {
   validate(mesh, opts);

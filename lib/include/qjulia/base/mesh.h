@@ -54,14 +54,23 @@ struct MeshMeasure {
 };
 
 /// Measures `mesh`. Runs in O(F log F). Faces with a repeated index count towards the edges but
-/// not towards the vertex fans. @throws Cancelled when `cancel` is requested.
+/// not towards the vertex fans.
+/// @throws InvalidInput when validate_mesh() refuses the mesh; Cancelled when `cancel` is
+///         requested.
 MeshMeasure measure(const TriMesh& mesh, const CancelToken* cancel = nullptr);
+
+/// The vertex-connected component of every face (faces that share a vertex are in one), numbered
+/// 0, 1, ... in the order of each component's first face. Runs in O(V + F).
+/// @throws InvalidInput when validate_mesh() refuses the mesh.
+std::vector<std::uint32_t> face_components(const TriMesh& mesh);
 
 /// Area-weighted vertex normals of `mesh`: #V unit vectors, (0, 0, 1) where no face defines a
 /// direction (isolated vertices, zero-area fans).
+/// @throws InvalidInput when validate_mesh() refuses the mesh.
 std::vector<std::array<float, 3>> area_weighted_normals(const TriMesh& mesh);
 
-/// Sets mesh.normals to area_weighted_normals(mesh).
+/// Sets mesh.normals to area_weighted_normals(mesh) (the normals it had, of any count, are
+/// replaced; on a failure they stay). @throws InvalidInput as area_weighted_normals().
 void compute_normals(TriMesh& mesh);
 
 }  // namespace qjulia

@@ -45,6 +45,7 @@ TriMesh clean(const TriMesh& mesh, const CleanOptions& opts = {}, CleanReport* r
 /// Counts pairs of faces that intersect other than in their shared vertices or edge
 /// (CGAL::Polygon_mesh_processing::self_intersections, multi-threaded). Faces that a halfedge
 /// mesh cannot hold (non-manifold) are skipped. Slow: ~5 CPU-seconds for 1.3M faces.
+/// @throws InvalidInput when validate_mesh() refuses the mesh.
 std::size_t count_self_intersections(const TriMesh& mesh);
 
 }  // namespace qjulia

@@ -11,7 +11,8 @@
 namespace qjulia {
 
 /// Scales `mesh` uniformly about the origin so its longest bounding-box side is `length`.
-/// @throws InvalidInput when length <= 0 or the mesh is empty or flat.
+/// @throws InvalidInput when length <= 0, validate_mesh() refuses the mesh, or it is empty or
+///         flat.
 /// @return the scale factor applied.
 double scale_to_longest_side(TriMesh& mesh, double length);
 
