@@ -1,7 +1,8 @@
 """Quaternion Julia: meshes of quaternionic Julia sets made in-process by the qjulia library.
 
-Add > Mesh > Quaternion Julia offers the presets; the parameters live on the object
-(Properties > Object > Quaternion Julia), where Regenerate makes the mesh again. The compiled
+Add > Mesh > Quaternion Julia offers the presets, and its options panel (F9) every parameter,
+filled from the preset; the parameters live on the object (Properties > Object > Quaternion
+Julia, the same fields), where Regenerate makes the mesh again. The compiled
 module qjulia is found through the directory scripts/install_blender_addon.sh records, or the
 add-on's preference. See docs/blender.md.
 """
@@ -69,12 +70,8 @@ class QJULIA_PT_object(bpy.types.Panel):
     def draw(self, context):
         p = context.object.qjulia
         layout = self.layout
-        layout.use_property_split = True
         layout.label(text=f"Preset: {p.preset}")
-        for name in ("formula", "constants", "mode", "method", "iterations", "bailout",
-                     "resolution", "bounds_min", "bounds_max", "axes", "fixed", "color",
-                     "size_mm"):
-            layout.prop(p, name)
+        params.draw_fields(layout, p)
         layout.operator(operators.QJULIA_OT_regenerate.bl_idname, icon='FILE_REFRESH')
         if p.summary:
             layout.label(text=p.summary)

@@ -1,11 +1,11 @@
 """Add > Mesh > Quaternion Julia and Regenerate: modal operators that mesh on a worker thread
 with the progress in the status bar (Esc cancels); execute() meshes at once (scripts,
-background mode)."""
+background mode, and the Add operator's options panel, Adjust Last Operation)."""
 
 import json
 
 import bpy
-from bpy.props import EnumProperty, FloatProperty, IntProperty, StringProperty
+from bpy.props import EnumProperty, StringProperty
 
 from . import build, params
 
@@ -45,11 +45,18 @@ class _Meshing:
         return {'PASS_THROUGH'}  # the interface stays live while the mesh is made
 
     def mesh_now(self, context, parameters):
+        """Meshes on this thread (execute(): scripts, background mode and the options panel,
+        whose changes Blender applies through execute()); the mouse cursor shows the progress."""
         qjulia = build.load_qjulia()
+        wm = context.window_manager
+        wm.progress_begin(0, 1)
         try:
-            return self.finish(context, qjulia.mesh(parameters), None)
+            result = qjulia.mesh(parameters, progress=lambda stage, f: wm.progress_update(f))
         except Exception as e:  # reported like the errors of the modal run
             return self.finish(context, None, e)
+        finally:
+            wm.progress_end()
+        return self.finish(context, result, None)
 
     def finish(self, context, result, error):
         """Reports `error` or an empty solid; otherwise calls self.use(context, result)."""
@@ -76,30 +83,73 @@ class _Meshing:
         return {'FINISHED'}
 
 
+_preset_items = []  # Blender keeps no copy of a dynamic enum's strings: they live here
+
+
+def preset_items(self, context):
+    """The presets for the Add operator's menu, from the module (none while it is not found)."""
+    if not _preset_items:
+        try:
+            presets = build.load_qjulia().presets()
+        except ImportError:
+            return []
+        _preset_items.extend((name, name, description) for name, description in presets.items())
+    return _preset_items
+
+
 class QJULIA_OT_add(_Meshing, bpy.types.Operator):
     """Add a mesh of a quaternionic Julia set"""
     bl_idname = "mesh.qjulia_add"
     bl_label = "Quaternion Julia"
-    bl_options = {'UNDO'}
+    bl_options = {'REGISTER', 'UNDO'}
 
-    preset: StringProperty(name="Preset", default="newton-cubic",
-                           description="A built-in preset (qjulia presets)")
-    params_json: StringProperty(name="Parameter File",
-                                description="A whole parameter file (JSON) instead of the preset")
-    resolution: IntProperty(name="Resolution", min=2, max=4096, default=96,
-                            description="Voxels along the longest side of the box")
-    color: EnumProperty(name="Colouring", items=params.COLORS, default="iterations")
-    size_mm: FloatProperty(name="Size", min=0, default=0,
-                           description="Longest side in millimetres (0: model units)")
+    # The object's fields (params.fields()) and what they start from; SKIP_SAVE: each Add
+    # starts from its preset, not from the values of the previous Add.
+    __annotations__ = {
+        "preset": EnumProperty(name="Preset", items=preset_items, options={'SKIP_SAVE'},
+                               description="A built-in preset (qjulia presets): choosing one "
+                                           "fills the fields below"),
+        **params.fields(options={'SKIP_SAVE'}),
+        "params_json": StringProperty(
+            name="Parameter File", options={'SKIP_SAVE'},
+            description="A whole parameter file (JSON) instead of the preset"),
+        "source": StringProperty(
+            name="Filled From", options={'HIDDEN', 'SKIP_SAVE'},
+            description="The preset or parameter file the fields were last filled from"),
+    }
 
     def parameters(self):
+        """The parameter file to mesh: the fields over the preset (or the parameter file).
+        The fields a preset sets are filled from it when it is chosen: on the first run those
+        the caller did not give, when another preset is chosen in the options panel all of
+        them; a field edited afterwards overrides the preset's value. Resolution, colouring
+        and size are the operator's own."""
         qjulia = build.load_qjulia()
-        base = json.loads(self.params_json) if self.params_json else qjulia.params(self.preset)
-        p = dict(base, resolution=self.resolution)
-        p["mesh"] = dict(base.get("mesh", {}), color=self.color)
-        if self.size_mm > 0:
-            p["print"] = dict(base.get("print", {}), size_mm=self.size_mm)
-        return p
+        if self.params_json:
+            given = json.loads(self.params_json)
+            if not isinstance(given, dict):
+                raise ValueError("parameter file: expected a JSON object")
+            base = qjulia.params(**given)  # complete: what the file leaves out at its default
+            if "description" not in given:
+                base.pop("description", None)  # (that of the default preset)
+        else:
+            base = qjulia.params(self.preset)
+        source = self.params_json or self.preset
+        if source != self.source:
+            names = [name for name in params.PRESET_FIELDS
+                     if self.source or not self.properties.is_property_set(name)]
+            params.fill(self, base, names)
+            self.source = source
+        return params.to_params(self, base)
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        row = layout.row()
+        row.enabled = not self.params_json
+        row.prop(self, "preset")
+        params.draw_fields(layout, self)
+        layout.prop(self, "params_json")
 
     def invoke(self, context, event):
         if context.window is None:  # no window (background): no modal run

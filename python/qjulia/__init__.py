@@ -19,6 +19,7 @@ memory estimate MemoryError, a file that cannot be read or written OSError.
 """
 
 import json
+import math
 import os
 from collections.abc import Mapping
 
@@ -31,6 +32,8 @@ __version__ = _core.version()
 
 # The sections of a parameter file that an override given as a dict updates key by key.
 _SECTIONS = ("constants", "slice", "bounds", "mesh", "print")
+# The least max_memory, as for --max-memory.
+_MIN_MEMORY = 1 << 20
 
 
 def presets():
@@ -82,8 +85,35 @@ def _merge(base, overrides):
     return out
 
 
+def _non_finite(value, path):
+    """The path and value of the first NaN or infinity in a parameter value, or None."""
+    if isinstance(value, Mapping):
+        items = ((f"{path}.{key}" if path else str(key), v) for key, v in value.items())
+    elif isinstance(value, (list, tuple)):
+        items = ((f"{path}[{i}]", v) for i, v in enumerate(value))
+    elif isinstance(value, (str, bool, int)) or value is None:
+        return None
+    elif isinstance(value, float):
+        return None if math.isfinite(value) else (path, value)
+    else:
+        return _non_finite(_json_value(value), path)
+    for item_path, item in items:
+        found = _non_finite(item, item_path)
+        if found:
+            return found
+    return None
+
+
 def _params_json(params, preset, overrides):
-    return json.dumps(_merge(_base(params, preset), overrides), default=_json_value)
+    merged = _merge(_base(params, preset), overrides)
+    try:
+        return json.dumps(merged, default=_json_value, allow_nan=False)
+    except ValueError:  # JSON has no NaN or infinity: name the key rather than fail to parse
+        found = _non_finite(merged, "")
+        if found is None:
+            raise
+        raise ValueError(f"parameters: '{found[0]}' is {found[1]}: the parameters must be finite "
+                         "numbers") from None
 
 
 def params(preset=None, **overrides):
@@ -93,7 +123,14 @@ def params(preset=None, **overrides):
 
 
 def _memory_bytes(max_memory):
-    if max_memory is None or isinstance(max_memory, int):
+    if max_memory is None:
+        return None
+    if isinstance(max_memory, bool):
+        raise TypeError("max_memory must be a number of bytes or a size such as \"4G\"")
+    if isinstance(max_memory, int):
+        if max_memory < _MIN_MEMORY:
+            raise ValueError(f"max_memory: expected at least 1M ({_MIN_MEMORY} bytes), "
+                             f"got {max_memory}")
         return max_memory
     return _core.parse_memory_size(str(max_memory), "max_memory")
 
@@ -110,7 +147,8 @@ def mesh(params=None, *, preset=None, progress=None, cancel=None, vdb=False, den
     cancel:     a CancelToken; request() from any thread cancels (Cancelled)
     vdb:        keep the sampled grid, so that save("grid.vdb") works
     dense:      evaluate every grid point (the validation path of --dense)
-    max_memory: the memory the run may use, bytes or "4G"; more raises MemoryError
+    max_memory: the memory the run may use, bytes (at least 1M) or "4G"; a run that the memory
+                estimate says needs more raises MemoryError before the work
 
     Returns a Mesh: .vertices, .faces, .normals, .colors (numpy views), .stats (the --stats
     dict), .params, .save(path). An empty solid gives a mesh with no faces (stats faces 0).

@@ -86,8 +86,12 @@ struct PyMesh {
   std::optional<SampledGrid> grid;
 };
 
+/// Raises ValueError for a path with a NUL character (as Python's open() does): the C library
+/// would take the part before it.
+void check_path(const std::string& path);
+
 /// Raises OSError (FileNotFoundError, PermissionError, IsADirectoryError, ...) naming `path`
-/// when it cannot be opened for reading.
+/// when it cannot be opened for reading; ValueError for a NUL in it (check_path()).
 void check_readable(const std::string& path);
 
 /// Raises OSError (FileNotFoundError, NotADirectoryError, PermissionError, IsADirectoryError)

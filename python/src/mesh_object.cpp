@@ -41,9 +41,13 @@ std::vector<std::array<T, 3>> rows_of(const py::handle& obj, const char* name) {
   using Array = py::array_t<T, py::array::c_style | py::array::forcecast>;
   const Array a = Array::ensure(obj);
   if (!a) throw InvalidInput(std::string(name) + ": expected an N x 3 array of numbers");
-  if (a.ndim() != 2 || a.shape(1) != 3)
-    throw InvalidInput(std::string(name) + ": expected an N x 3 array, got shape " +
-                       py::str(py::handle(obj).attr("shape")).cast<std::string>());
+  if (a.ndim() != 2 || a.shape(1) != 3) {
+    std::string shape = "(";
+    for (py::ssize_t d = 0; d < a.ndim(); ++d)
+      shape += (d ? ", " : "") + std::to_string(a.shape(d));
+    throw InvalidInput(std::string(name) + ": expected an N x 3 array, got shape " + shape +
+                       (a.ndim() == 1 ? ",)" : ")"));
+  }
   std::vector<std::array<T, 3>> out(static_cast<std::size_t>(a.shape(0)));
   if (!out.empty()) std::copy_n(a.data(), out.size() * 3, out.front().data());
   return out;

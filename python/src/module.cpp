@@ -212,10 +212,24 @@ py::array_t<std::uint8_t> render_mesh(const PyMesh& mesh, const py::kwargs& kwar
 // Writes an H x W x 3 uint8 array as a PNG, as `qjulia render` writes its images.
 void save_png(const py::object& path_like, const py::handle& pixels) {
   const std::string path = fspath(path_like);
-  using Array = py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>;
-  const Array a = Array::ensure(pixels);
-  if (!a || a.ndim() != 3 || a.shape(2) != 3)
+  const py::array given = py::array::ensure(pixels);
+  if (!given || given.ndim() != 3 || given.shape(2) != 3)
     throw InvalidInput("image: expected an H x W x 3 array of uint8");
+  // Other integer types only when every value is a byte (a cast would wrap them silently).
+  const char kind = given.dtype().kind();
+  if (kind != 'u' && kind != 'i')
+    throw InvalidInput("image: expected uint8 values 0..255, not " +
+                       py::str(given.dtype()).cast<std::string>());
+  if (given.dtype().itemsize() > 1 || kind == 'i') {
+    using Wide = py::array_t<long long, py::array::c_style | py::array::forcecast>;
+    const Wide wide = Wide::ensure(given);
+    const auto* v = wide.data();
+    for (py::ssize_t i = 0; i < wide.size(); ++i)
+      if (v[i] < 0 || v[i] > 255)
+        throw InvalidInput("image: value " + std::to_string(v[i]) + " is not in 0..255");
+  }
+  using Array = py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast>;
+  const Array a = Array::ensure(given);
   Image image;
   image.height = static_cast<int>(a.shape(0));
   image.width = static_cast<int>(a.shape(1));
@@ -379,7 +393,13 @@ void run_watched(std::function<void(Watch&)> work, const py::object& progress,
   if (run->failure) std::rethrow_exception(run->failure);
 }
 
+void check_path(const std::string& path) {
+  // The C library would read or write the file named by the part before the NUL.
+  if (path.find('\0') != std::string::npos) throw py::value_error("embedded null byte");
+}
+
 void check_readable(const std::string& path) {
+  check_path(path);
   std::FILE* f = std::fopen(path.c_str(), "rb");
   struct stat st {};
   const bool is_dir = f && ::stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
@@ -391,6 +411,7 @@ void check_readable(const std::string& path) {
 }
 
 void check_writable(const std::string& path) {
+  check_path(path);
   const auto slash = path.find_last_of('/');
   const std::string dir = slash == std::string::npos ? "." : path.substr(0, slash ? slash : 1);
   struct stat st {};

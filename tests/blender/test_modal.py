@@ -5,11 +5,13 @@
 
 Add > Mesh > Quaternion Julia invoked as from the menu: the operator runs modally, the
 interface keeps handling events while the mesh is made (an application timer keeps firing), the
-status bar shows the progress, and the object equals `qjulia mesh --stats`. Then a long
-Regenerate is cancelled by a simulated Esc: it stops within a second and the object keeps its
+status bar shows the progress, and the object equals `qjulia mesh --stats`. The options
+panel (Adjust Last Operation) makes it again with another preset and with edited fields. Then
+a long Regenerate is cancelled by a simulated Esc: it stops within a second and the object keeps its
 mesh. Exits 0 when every check passed, 1 otherwise.
 """
 
+import json
 import os
 import shutil
 import sys
@@ -67,6 +69,7 @@ def steps():
     ui = view3d()
     for obj in list(bpy.data.objects):
         bpy.data.objects.remove(obj)
+    bpy.ops.ed.undo_push(message="empty scene")  # what the options panel's redo returns to
     # The first seconds of a window draw slowly (software OpenGL compiles its shaders).
     ticks = [time.monotonic()]
     while len(ticks) < 10 or max(b - a for a, b in zip(ticks[-10:], ticks[-9:])) > 0.1:
@@ -95,6 +98,38 @@ def steps():
     stats = cli_stats("--preset", "newton-cubic", "--resolution", 128, "--color", "iterations")
     assert (len(obj.data.vertices), len(obj.data.polygons)) == (stats["vertices"], stats["faces"])
     assert obj.data.color_attributes.get(build.COLOR_ATTRIBUTE) and obj.active_material
+
+    # The options panel (Adjust Last Operation): Blender undoes the Add and runs its execute()
+    # again with the changed options (ed.undo_redo is what the panel calls). Another preset
+    # refills the fields; a field edited afterwards overrides the preset's value.
+    wm = bpy.context.window_manager
+    add = wm.operators[-1]
+    assert add.bl_idname == "MESH_OT_qjulia_add", [op.bl_idname for op in wm.operators]
+    assert (add.properties.source, add.properties.formula, add.properties.iterations) == \
+        ("newton-cubic", "(2*h^3+1)/(3*h^2)", 12)
+    nine = {"iterations": 9}
+    bounds = {"iterations": 9, "bounds": {"min": [-2, -2, -2], "max": [1.75, 2, 2]}}
+    for change, preset, overrides, flags in (
+            ({"preset": "classic-julia", "resolution": 64}, "classic-julia", {}, ()),
+            ({"preset": "newton-cubic"}, "newton-cubic", {}, ()),
+            ({"iterations": 9}, "newton-cubic", nine, ("--iterations", 9)),
+            ({"bounds_max": (1.75, 2, 2)}, "newton-cubic", bounds,
+             ("--iterations", 9, "--bounds=-2,-2,-2,1.75,2,2"))):
+        props = wm.operators[-1].properties
+        for name, value in change.items():
+            setattr(props, name, value)
+        with bpy.context.temp_override(**ui):
+            assert bpy.ops.ed.undo_redo('EXEC_DEFAULT', True) == {'FINISHED'}  # with undo
+        assert len(bpy.data.objects) == 1, [o.name for o in bpy.data.objects]
+        obj = bpy.data.objects[0]
+        assert obj.name == preset and obj.qjulia.preset == preset, obj.name
+        stats = cli_stats("--preset", preset, "--resolution", 64, *flags, "--color", "iterations")
+        assert (len(obj.data.vertices), len(obj.data.polygons)) == \
+            (stats["vertices"], stats["faces"]), (change, len(obj.data.polygons), stats["faces"])
+        assert json.loads(obj.qjulia.params_json) == qjulia.params(
+            preset, resolution=64, mesh={"color": "iterations"}, **overrides), change
+        print(f"options panel: {change}: {obj.qjulia.summary}")
+    yield 0.1
 
     # Esc cancels a long Regenerate; the object keeps its mesh.
     faces = len(obj.data.polygons)

@@ -145,7 +145,9 @@ ExploreServer::ExploreServer(const std::vector<std::string>& args, const std::st
 }
 
 ExploreServer::~ExploreServer() {
-  if (pid_ > 0) {
+  // SIGTERM first, so the server removes its private directory ($TMPDIR/qjulia-explore-*);
+  // SIGKILL only when it does not end.
+  if (pid_ > 0 && stop(SIGTERM, 10) < 0 && pid_ > 0) {
     kill(pid_, SIGKILL);
     waitpid(pid_, nullptr, 0);
   }

@@ -41,7 +41,7 @@ class ExploreServer {
   /// @param[in] args    more arguments (a preset, --listen, ...)
   /// @param[in] tmpdir  TMPDIR of the server ("" keeps the test's)
   explicit ExploreServer(const std::vector<std::string>& args = {}, const std::string& tmpdir = "");
-  ~ExploreServer();  ///< kills the server if it still runs
+  ~ExploreServer();  ///< stops the server (SIGTERM, then SIGKILL) if it still runs
   ExploreServer(const ExploreServer&) = delete;
   ExploreServer& operator=(const ExploreServer&) = delete;
 

@@ -153,6 +153,23 @@ def test_library_exceptions_become_the_python_exceptions_of_the_issue(kind, pyth
 def test_a_bad_memory_size_is_a_value_error():
     with pytest.raises(ValueError, match="max_memory"):
         qjulia.mesh(resolution=8, max_memory="lots")
+    for size in (-1, 0, 1000):
+        with pytest.raises(ValueError, match="max_memory: expected at least 1M"):
+            qjulia.mesh(resolution=8, max_memory=size)
+    with pytest.raises(TypeError):
+        qjulia.mesh(resolution=8, max_memory=True)
+
+
+def test_the_memory_estimate_refuses_with_memory_error_before_the_work():
+    calls = []
+    t0 = time.monotonic()
+    with pytest.raises(MemoryError, match="resolution 1024 needs about") as e:
+        qjulia.mesh(preset="newton-cubic", resolution=1024, max_memory="64M",
+                    progress=lambda stage, fraction: calls.append(stage))
+    assert time.monotonic() - t0 < 5
+    assert set(calls) <= {"estimate"}, calls  # refused before sampling
+    assert "64.0 MiB" in str(e.value)
+    assert qjulia.mesh(preset="classic-julia", resolution=16, max_memory=1 << 30).stats["faces"]
 
 
 def test_bad_callbacks_and_tokens_are_type_errors():

@@ -52,6 +52,24 @@ def test_compare_seed_changes_the_random_samples_only(pair):
     assert one["a"] == two["a"] and one["a_to_b"]["mean"] != two["a_to_b"]["mean"]
 
 
+def test_compare_takes_strided_arrays_of_any_number_type(pair):
+    a, b, _, _ = pair
+    wide = np.zeros((len(a.vertices), 6))
+    wide[:, 1::2] = a.vertices
+    faces = np.asfortranarray(a.faces.astype(np.int64))
+    assert qjulia.compare((wide[:, 1::2], faces), b, samples=SAMPLES) == \
+        qjulia.compare(a, b, samples=SAMPLES)
+
+
+def test_compare_of_bad_arrays_is_a_value_error(pair):
+    a, b = pair[0], pair[1]
+    for bad in [(a.vertices[:, :2], a.faces), (a.vertices, a.faces.astype(np.float32)),
+                (a.vertices, a.faces + len(a.vertices)), (np.full_like(a.vertices, np.nan), a.faces),
+                (np.zeros((0, 3)), np.zeros((0, 3), np.uint32))]:
+        with pytest.raises(ValueError):
+            qjulia.compare(bad, b, samples=SAMPLES)
+
+
 def test_compare_of_a_wrong_thing_is_a_type_error(pair):
     with pytest.raises(TypeError):
         qjulia.compare(pair[0], 3)
@@ -81,6 +99,14 @@ def test_save_png_writes_the_image(tmp_path, pair):
         qjulia.save_png(tmp_path / "j.png", image[:, :, :2])
     with pytest.raises(FileNotFoundError):
         qjulia.save_png(tmp_path / "no" / "i.png", image)
+    # No silent wrap-around: other integer types only with values 0..255, no floats.
+    qjulia.save_png(tmp_path / "k.png", image.astype(np.int64))
+    np.testing.assert_array_equal(read_png(tmp_path / "k.png"), image)
+    with pytest.raises(ValueError, match="value -1 is not in 0..255"):
+        qjulia.save_png(tmp_path / "l.png", np.where(image == image.max(), -1, image))
+    with pytest.raises(ValueError, match="float64"):
+        qjulia.save_png(tmp_path / "l.png", image / 255.0)
+    assert not (tmp_path / "l.png").exists()
 
 
 def test_render_uses_the_library_defaults_and_checks_options(pair):

@@ -47,6 +47,14 @@ def test_arrays_are_read_only_views_of_the_mesh():
             a[0, 0] = 1
 
 
+def test_arrays_are_the_meshs_memory_not_copies():
+    m = qjulia.mesh(preset="unit-ball", resolution=16, mesh={"color": "iterations"})
+    for name in ("vertices", "faces", "normals", "colors"):
+        a = getattr(m, name)
+        assert a.base is m, f"{name} is not a view owned by the mesh"
+        assert not a.flags.owndata and a.flags.c_contiguous
+
+
 def test_an_array_keeps_its_mesh_alive():
     vertices = qjulia.mesh(preset="unit-ball", resolution=16).vertices
     gc.collect()
@@ -115,7 +123,25 @@ def test_mesh_from_arrays_checks_them():
         qjulia.Mesh(v, f.astype(np.float64))
     with pytest.raises(ValueError, match="colors: 3 rows for 4 vertices"):
         qjulia.Mesh(v, f, colors=np.zeros((3, 3)))
+    with pytest.raises(ValueError, match=r"got shape \(\)"):
+        qjulia.Mesh(None, f)
+    with pytest.raises(ValueError, match="numbers"):
+        qjulia.Mesh(np.array([["a", "b", "c"]]), f[:1] * 0)
+    with pytest.raises(ValueError, match="vertex index"):
+        qjulia.Mesh(v, np.array([[0, 1, 2**63]], np.uint64))
     bad = v.copy()
     bad[2, 1] = np.nan
     with pytest.raises(ValueError, match="Mesh: vertex 2 has a non-finite position"):
         qjulia.Mesh(bad, f)
+
+
+def test_strided_arrays_give_the_mesh_of_their_values():
+    v = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], np.float64)
+    f = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], np.int64)
+    wide_v = np.zeros((4, 6))
+    wide_v[:, ::2] = v
+    wide_f = np.zeros((8, 3), np.int32)
+    wide_f[::2] = f
+    m = qjulia.Mesh(wide_v[:, ::2], np.asfortranarray(wide_f[::2]))
+    np.testing.assert_array_equal(m.vertices, v)
+    np.testing.assert_array_equal(m.faces, f)

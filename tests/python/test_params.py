@@ -136,6 +136,22 @@ def test_a_directory_as_parameter_file_is_an_os_error(tmp_path):
         qjulia.mesh(tmp_path)
 
 
+@pytest.mark.parametrize("overrides,key", [
+    (dict(bailout=float("nan")), "bailout"),
+    (dict(constants={"c": [np.float32("inf"), 0, 0, 0]}), "constants.c[0]"),
+    (dict(bounds={"min": [-1, -1, float("-inf")], "max": [1, 1, 1]}), "bounds.min[2]"),
+])
+def test_a_non_finite_number_is_a_value_error_naming_its_key(overrides, key):
+    with pytest.raises(ValueError) as e:
+        qjulia.mesh(preset="classic-julia", resolution=8, **overrides)
+    assert f"'{key}'" in str(e.value) and "finite" in str(e.value)
+
+
+def test_a_path_with_a_nul_is_a_value_error(tmp_path):
+    with pytest.raises(ValueError, match="null byte"):
+        qjulia.mesh(str(tmp_path / "p.json") + "\0.json")
+
+
 def test_wrong_types_are_type_errors():
     with pytest.raises(TypeError):
         qjulia.mesh(42)

@@ -117,6 +117,16 @@ def test_a_mesh_from_arrays_saves_without_parameters(tmp_path):
     assert back.params is None
 
 
+def test_a_path_with_a_nul_is_a_value_error_and_writes_nothing(tmp_path, rosa):
+    # The C library would take the part before the NUL as the file's name.
+    with pytest.raises(ValueError, match="null byte"):
+        rosa.save(str(tmp_path / "m") + "\0.glb")
+    assert list(tmp_path.iterdir()) == []
+    rosa.save(tmp_path / "m.glb")
+    with pytest.raises(ValueError, match="null byte"):  # not a read of m.glb
+        qjulia.load(str(tmp_path / "m.glb") + "\0.ply")
+
+
 def test_loading_a_missing_file_is_file_not_found(tmp_path):
     with pytest.raises(FileNotFoundError):
         qjulia.load(tmp_path / "missing.glb")
