@@ -462,7 +462,8 @@ TEST(Kernel, AnalyticFunctionsMatchTheScalarOnesAtTheExtremesAndOnTheNegativeRea
   // scaled |v|, the overflow edges of exp, sin, sinh, the ends of the vector ranges), exact
   // negative reals (t = 0: u = i, so log, sqrt and real powers give the complex value in both
   // paths), non-finite input, and more exponents. Points within 1e-6 of the cut but off it are
-  // left out: there the kernel's axis for a vector part below about 1e-154 may differ.
+  // left out: there the kernel, which does not rescale v, loses the axis of a vector part below
+  // about 1e-150 (|v|^2 goes subnormal) and takes u = i below about 1e-162.
   using detail::OpCode;
   const double inf = std::numeric_limits<double>::infinity(), nan = std::nan("");
   std::vector<Quat> in;
