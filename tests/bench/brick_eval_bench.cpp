@@ -20,7 +20,8 @@ int main(int argc, char** argv) {
   GridGeometry geo = grid_geometry(p);
   SampleOptions so;
   detail::BrickList bricks;
-  for (int rep = 0; rep < 5; ++rep) {
+  const int reps = argc > 4 ? std::stoi(argv[4]) : 5;
+  for (int rep = 0; rep < reps; ++rep) {
     const auto t0 = std::chrono::steady_clock::now();
     detail::BrickSampler bs(solid, geo, so);
     bricks = bs.run();

@@ -272,14 +272,18 @@ std::uint64_t Solid::values(const double* x, const double* y, const double* z, s
   if (!has_clip()) {
     // Points of the grid are inside the box: only callers with points outside need the
     // constraint, and they are the refinement, which asks point by point near the walls.
+    thread_local std::vector<double> c;
+    c.resize(n);
     bool all_in_box = true;
-    for (std::size_t i = 0; i < n && all_in_box; ++i)
-      all_in_box = constraint(x[i], y[i], z[i]) <= 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      c[i] = constraint(x[i], y[i], z[i]);
+      all_in_box = all_in_box && c[i] <= 0;
+    }
     if (all_in_box) {
       const std::uint64_t steps =
           root ? classifier_.root_field(x, y, z, n, out) : classifier_.field(x, y, z, n, out);
       for (std::size_t i = 0; i < n; ++i)
-        out[i] = std::max(out[i], static_cast<float>(constraint(x[i], y[i], z[i]) / voxel_));
+        out[i] = std::max(out[i], static_cast<float>(c[i] / voxel_));
       return steps;
     }
   }

@@ -88,7 +88,23 @@ struct PointTables {
   Bits<kBrickPoints> level4;      // the 27 points at stride 4
   Bits<kBrickPoints> level2[8];   // the 27 points at stride 2 of each 4-cell
   Bits<kBrickPoints> level1[64];  // the 27 points of each 2-cell
+  // For the neighbour in direction o (index (dx + 1) * 9 + (dy + 1) * 3 + dz + 1): its points
+  // that are also ours, and how far our index of such a point is from its own.
+  Bits<kBrickPoints> shared_with[27];
+  int offset[27] = {};
   PointTables() {
+    for (int o = 0; o < 27; ++o) {
+      const int d[3] = {o / 9 - 1, (o / 3) % 3 - 1, o % 3 - 1};
+      offset[o] = (d[0] * kSide * kSide + d[1] * kSide + d[2]) * kBrick;
+      for (int i = 0; i < kSide; ++i)
+        for (int j = 0; j < kSide; ++j)
+          for (int k = 0; k < kSide; ++k) {
+            const int ours[3] = {i + kBrick * d[0], j + kBrick * d[1], k + kBrick * d[2]};
+            bool in = true;
+            for (int a = 0; a < 3; ++a) in = in && ours[a] >= 0 && ours[a] <= kBrick;
+            if (in && o != 13) shared_with[o].set(point_index(i, j, k));
+          }
+    }
     for (int i = 0; i < kSide; ++i)
       for (int j = 0; j < kSide; ++j)
         for (int k = 0; k < kSide; ++k) {
@@ -127,8 +143,9 @@ void Brick::unpack() {
   full.reset(new float[kBrickPoints]);
   if (packed) {
     std::size_t n = 0;
-    for (int p = 0; p < kBrickPoints; ++p)
-      if (known.test(p)) full[p] = packed[n++];
+    for (int w = 0; w < (kBrickPoints + 63) / 64; ++w)
+      for (std::uint64_t bits = known.w[w]; bits; bits &= bits - 1)
+        full[w * 64 + __builtin_ctzll(bits)] = packed[n++];
     packed.reset();
   }
 }
@@ -144,6 +161,17 @@ void Brick::pack() {
       packed[k++] = full[w * 64 + __builtin_ctzll(bits)];
   }
   full.reset();
+}
+
+void Brick::known_values(std::vector<float>& out) const {
+  out.clear();
+  if (!full) {
+    out.assign(packed.get(), packed.get() + known.count());
+    return;
+  }
+  for (int w = 0; w < (kBrickPoints + 63) / 64; ++w)
+    for (std::uint64_t bits = known.w[w]; bits; bits &= bits - 1)
+      out.push_back(full[w * 64 + __builtin_ctzll(bits)]);
 }
 
 void Brick::assign(const Bits<kBrickPoints>& known_points, const float* values) {
@@ -317,15 +345,18 @@ struct BrickSampler::Impl {
 
   // Makes the points of `want` known (the brick unpacked): copied from a neighbour or the
   // lattice, or queued in the batch for evaluation; `real` when no point of the brick is virtual.
-  void need_mask(Brick& br, const Around& a, Bits<kBrickPoints> want, Batch& b, bool real) const {
+  // `avail`, when given, holds the points some neighbour knows (neighbours_know()).
+  void need_mask(Brick& br, const Around& a, Bits<kBrickPoints> want, Batch& b, bool real,
+                 const Bits<kBrickPoints>* avail = nullptr) const {
     using Pts = Bits<kBrickPoints>;
     const PointTables& t = point_tables();
     want = want & ~br.known;
     br.known = br.known | want;
     const int base[3] = {br.at.x * kBrick, br.at.y * kBrick, br.at.z * kBrick};
     if (map) {
-      // Only points on the brick's faces can be held by a neighbour or the lattice.
-      const Pts shared = want & t.face;
+      // Only points on the brick's faces can be held by a neighbour or the lattice (whose
+      // points are brick corners).
+      const Pts shared = avail ? want & (*avail | (t.level8 & t.face)) : want & t.face;
       for (int w = 0; w < Pts::kWords; ++w)
         for (std::uint64_t bits = shared.w[w]; bits; bits &= bits - 1) {
           const int p = w * 64 + __builtin_ctzll(bits);
@@ -345,6 +376,18 @@ struct BrickSampler::Impl {
         b.z.push_back(geo.origin[2] + g[2] * geo.voxel);
         b.dest.push_back(br.slot(p));
       }
+  }
+
+  // The points of the brick that one of its neighbours knows: their known points on the
+  // faces they share with it, in its numbering.
+  Bits<kBrickPoints> neighbours_know(const Around& a) const {
+    const PointTables& t = point_tables();
+    Bits<kBrickPoints> avail;
+    if (!map) return avail;
+    for (int o = 0; o < 27; ++o)
+      if (o != 13 && a.n[o])
+        avail = avail | shifted(a.n[o]->known & t.shared_with[o], -t.offset[o]);
+    return avail;
   }
 
   // Flags the cube of side s (points) at local lower corner (i, j, k) by its corners (and its
@@ -374,19 +417,44 @@ struct BrickSampler::Impl {
   // --- one visit of a brick -------------------------------------------------------------------
 
   // Level 8 of candidate bricks: their corners; hit[i] true when brick i is to be refined.
-  // The bricks of a group share one batch of evaluations.
+  // The bricks of a group share one batch of evaluations; a candidate keeps only its corners,
+  // packed (most are never refined).
   void flag8(Brick* const* group, std::size_t n, Batch& b, char* hit) {
+    thread_local std::vector<std::array<float, 8>> values;
+    if (values.size() < n) values.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
       Brick& br = *group[i];
       const Around a = around(br);
-      br.unpack();
-      need_mask(br, a, point_tables().level8, b, false);
+      for (int d = 0; d < 8; ++d) {
+        const int l[3] = {(d & 1) * kBrick, ((d >> 1) & 1) * kBrick, (d >> 2) * kBrick};
+        const int p = point_index(l[0], l[1], l[2]);
+        float* dest = &values[i][d];
+        if (br.known.test(p)) {
+          *dest = br.get(p);
+          continue;
+        }
+        const int g[3] = {br.at.x * kBrick + l[0], br.at.y * kBrick + l[1],
+                          br.at.z * kBrick + l[2]};
+        if (map && g[0] >= 0 && g[1] >= 0 && g[2] >= 0 && lookup(br, a, g, dest)) continue;
+        queue(b, g[0], g[1], g[2], dest);
+      }
     }
     run(b);
     for (std::size_t i = 0; i < n; ++i) {
       Brick& br = *group[i];
-      hit[i] = flag_cube(br, 0, 0, 0, kBrick, false);
-      br.pack();
+      Flagger f;
+      Bits<kBrickPoints> corners;
+      float sorted[8];
+      for (int d = 0; d < 8; ++d) {
+        const int l[3] = {(d & 1) * kBrick, ((d >> 1) & 1) * kBrick, (d >> 2) * kBrick};
+        f.add(values[i][d], is_virtual(br.at.x * kBrick + l[0], br.at.y * kBrick + l[1],
+                                       br.at.z * kBrick + l[2]));
+        corners.set(point_index(l[0], l[1], l[2]));
+        // Point order: k fastest, then j, then i.
+        sorted[((d & 1) << 2) | (d & 2) | (d >> 2)] = values[i][d];
+      }
+      hit[i] = f.refine(true);
+      br.assign(corners, sorted);
     }
   }
 
@@ -430,7 +498,8 @@ struct BrickSampler::Impl {
     Pts valid, frontier, visited, surface, sign;
     std::vector<int> queued;
     bool closing = false;
-    bool real = false;  // no point of the brick is virtual
+    bool real = false;         // no point of the brick is virtual
+    Bits<kBrickPoints> avail;  // the points a neighbour knows
   };
 
   // Visits a group of bricks of one class: each level (4, 2, 1) and each round of the closure
@@ -452,9 +521,10 @@ struct BrickSampler::Impl {
         for (std::uint64_t bits = br.inbox_cells[w].exchange(0); bits; bits &= bits - 1)
           v.frontier_cells.push_back(static_cast<std::uint16_t>(w * 64 + __builtin_ctzll(bits)));
       v.real = all_real(br);
+      v.avail = neighbours_know(v.a);
       // Level 4: the 27 points at stride 4.
       v.level4 = br.refined8 && !br.started;
-      if (v.level4) need_mask(br, v.a, point_tables().level4, b, v.real);
+      if (v.level4) need_mask(br, v.a, point_tables().level4, b, v.real, &v.avail);
     }
     run(b);
     for (std::size_t i = 0; i < n; ++i) {
@@ -470,7 +540,7 @@ struct BrickSampler::Impl {
         Pts want;
         for (int q = 0; q < 8; ++q)
           if (v.new4 >> q & 1) want = want | point_tables().level2[q];
-        need_mask(br, v.a, want, b, v.real);
+        need_mask(br, v.a, want, b, v.real, &v.avail);
       }
     }
     run(b);
@@ -496,7 +566,7 @@ struct BrickSampler::Impl {
         Pts want;
         for (std::uint64_t bits = v.new2; bits; bits &= bits - 1)
           want = want | point_tables().level1[__builtin_ctzll(bits)];
-        need_mask(br, v.a, want, b, v.real);
+        need_mask(br, v.a, want, b, v.real, &v.avail);
       }
     }
     run(b);
@@ -632,7 +702,7 @@ struct BrickSampler::Impl {
     for (int w = 0; w < Pts::kWords; ++w)
       for (std::uint64_t bits = corners.w[w]; bits; bits &= bits - 1)
         v.queued.push_back(w * 64 + __builtin_ctzll(bits));
-    need_mask(br, v.a, corners, b, v.real);
+    need_mask(br, v.a, corners, b, v.real, &v.avail);
     return true;
   }
 
@@ -669,7 +739,8 @@ struct BrickSampler::Impl {
         for (int w = 0; w < Pts::kWords; ++w)
           for (std::uint64_t bits = go.w[w]; bits; bits &= bits - 1) {
             const int p = w * 64 + __builtin_ctzll(bits);
-            int n[3] = {p / 81, (p / 9) % 9, p % 9};
+            const auto& at = point_tables().at[p];
+            int n[3] = {at[0], at[1], at[2]};
             if (n[axis] != (t ? kBrick - 1 : 0)) continue;
             const int gn = base[axis] + n[axis] + (t ? 1 : -1);
             if (gn < -1 || gn >= geo.points[axis]) continue;
@@ -692,15 +763,13 @@ struct BrickSampler::Impl {
   // Back to cell numbering.
   static void close_finish(Visit& v) {
     Brick& br = *v.br;
+    const PointTables& t = point_tables();
+    auto cell = [&](int p) { return cell_index(t.at[p][0], t.at[p][1], t.at[p][2]); };
     for (int w = 0; w < Pts::kWords; ++w) {
-      for (std::uint64_t bits = v.visited.w[w]; bits; bits &= bits - 1) {
-        const int p = w * 64 + __builtin_ctzll(bits);
-        br.visited.set(cell_index(p / 81, (p / 9) % 9, p % 9));
-      }
-      for (std::uint64_t bits = v.surface.w[w]; bits; bits &= bits - 1) {
-        const int p = w * 64 + __builtin_ctzll(bits);
-        br.surface.set(cell_index(p / 81, (p / 9) % 9, p % 9));
-      }
+      for (std::uint64_t bits = v.visited.w[w]; bits; bits &= bits - 1)
+        br.visited.set(cell(w * 64 + __builtin_ctzll(bits)));
+      for (std::uint64_t bits = v.surface.w[w]; bits; bits &= bits - 1)
+        br.surface.set(cell(w * 64 + __builtin_ctzll(bits)));
     }
   }
 };
@@ -852,8 +921,9 @@ BrickList BrickSampler::run() {
         p.put(b->key);
         p.put(b->known);
         p.put(b->visited);
-        const std::size_t n = b->known.count();
-        p.put_bytes(b->packed_values(), n * sizeof(float));
+        std::vector<float> values;
+        b->known_values(values);
+        p.put_bytes(values.data(), values.size() * sizeof(float));
       }
     }
     std::vector<std::string> out(ranks);
@@ -1163,7 +1233,6 @@ BrickList BrickSampler::run() {
         for (Outbox& o : outboxes)
           for (Brick* b : o.schedule) pending[class_of(*b)].push_back(b);
       }
-      malloc_trim(0);  // the values of the visited bricks were repacked
       if (dist) any = dist->comm->any(any);
     }
   }
@@ -1174,6 +1243,7 @@ BrickList BrickSampler::run() {
   for (auto& [key, br] : bricks)
     if (br->known.any() && owned(br->at.x)) out.push_back(std::move(br));
   bricks.clear();
+  malloc_trim(0);
   if (dist && ranks > 1) redeal_for_meshing(out, *dist, lowest_plane);
   tbb::parallel_sort(out.begin(), out.end(),
                      [](const std::unique_ptr<Brick>& a, const std::unique_ptr<Brick>& b) {

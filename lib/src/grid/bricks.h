@@ -109,27 +109,12 @@ Bits<N> shifted(const Bits<N>& b, int k) {
   return r;
 }
 
-/// One brick of the sampled grid.
+/// One brick of the sampled grid. The fields a neighbour reads (where it is, which points are
+/// known, their values) come first, in the brick's first cache lines.
 struct Brick {
   BrickCoord at;
   std::uint64_t key = 0;
-  Bits<kBrickPoints> known;   ///< points whose value is known
-  std::uint8_t flagged4 = 0;  ///< 4-cells (of 8) flagged at stride 4, before dilation
-  std::uint8_t refine4 = 0;   ///< 4-cells refined to stride 2
-  std::uint8_t done4 = 0;     ///< 4-cells whose stride-2 points were evaluated and flagged
-  std::uint64_t refine2 = 0;  ///< 2-cells (of 64) refined to stride 1
-  std::uint64_t done2 = 0;    ///< 2-cells whose stride-1 points were evaluated
-  Bits<kBrickCells> surface;  ///< crossing cells: the ones to mesh
-  Bits<kBrickCells> visited;  ///< cells the closure has looked at
-  bool started = false;       ///< the stride-4 level ran
-  bool refined8 = false;      ///< flagged (or dilated) at stride 8: runs the stride-4 level
-  /// Requests of neighbours waiting for the brick's next visit: 4-cells to refine, cells to
-  /// look at. Neighbours of other classes write them while the brick waits.
-  std::atomic<std::uint8_t> inbox4{0};
-  std::atomic<std::uint64_t> inbox_cells[kBrickCells / 64] = {};
-  std::atomic<bool> scheduled{false};  ///< in a class's list for a visit
-  /// The 26 neighbours (index (dx + 1) * 9 + (dy + 1) * 3 + dz + 1), null where none exists.
-  Brick* around[27] = {};
+  Bits<kBrickPoints> known;  ///< points whose value is known
 
   /// F at known point p (the virtual value outside the grid or a clip).
   float get(int p) const {
@@ -142,18 +127,37 @@ struct Brick {
   float* slot(int p) { return &full[p]; }
   /// Values as an array of all 9^3 points, for sampling the brick.
   void unpack();
-  /// Values of the known points only (about a third of the points): how bricks wait.
+  /// Values of the known points only (about a third of the points): how bricks are kept once
+  /// sampled.
   void pack();
   /// Sets the known points and their values (in point order), packed: a copy of another
-  /// process's brick.
+  /// process's brick, or the corners of a candidate brick.
   void assign(const Bits<kBrickPoints>& known_points, const float* values);
-  /// The known values in point order (the brick packed).
-  const float* packed_values() const { return packed.get(); }
+  /// The known values in point order, in either form.
+  void known_values(std::vector<float>& out) const;
 
  private:
   std::unique_ptr<float[]> full;                      // kBrickPoints values, while sampled
   std::unique_ptr<float[]> packed;                    // the known values in point order, otherwise
   std::uint16_t rank[(kBrickPoints + 63) / 64] = {};  // known points before each word
+
+ public:
+  std::uint8_t flagged4 = 0;  ///< 4-cells (of 8) flagged at stride 4, before dilation
+  std::uint8_t refine4 = 0;   ///< 4-cells refined to stride 2
+  std::uint8_t done4 = 0;     ///< 4-cells whose stride-2 points were evaluated and flagged
+  bool started = false;       ///< the stride-4 level ran
+  bool refined8 = false;      ///< flagged (or dilated) at stride 8: runs the stride-4 level
+  std::uint64_t refine2 = 0;  ///< 2-cells (of 64) refined to stride 1
+  std::uint64_t done2 = 0;    ///< 2-cells whose stride-1 points were evaluated
+  Bits<kBrickCells> surface;  ///< crossing cells: the ones to mesh
+  Bits<kBrickCells> visited;  ///< cells the closure has looked at
+  /// Requests of neighbours waiting for the brick's next visit: 4-cells to refine, cells to
+  /// look at. Neighbours of other classes write them while the brick waits.
+  std::atomic<std::uint8_t> inbox4{0};
+  std::atomic<std::uint64_t> inbox_cells[kBrickCells / 64] = {};
+  std::atomic<bool> scheduled{false};  ///< in a class's list for a visit
+  /// The 26 neighbours (index (dx + 1) * 9 + (dy + 1) * 3 + dz + 1), null where none exists.
+  Brick* around[27] = {};
 };
 
 /// The bricks of a sampled grid, sorted by key.
