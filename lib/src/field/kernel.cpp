@@ -686,12 +686,16 @@ class Machine {
   }
 
 #if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
-  // AVX-512: every orbit's state stays in registers for the whole batch; a decided lane is
-  // written to the finished buffer (compressing stores) and refilled with the next waiting
-  // point in the same step (expanding loads), so no lane ever waits.
+  // AVX-512: every orbit's state stays in registers for the whole batch. The steps run without
+  // a branch on the data (a lane that decides stores what F needs with masked stores and
+  // idles); every kSteps steps, a vector in which kRefillAt lanes wait sends its decided
+  // orbits to the finished buffer (compressing stores) and takes the next waiting points
+  // (expanding loads). A data-dependent branch at every step cost more than the idle lanes.
   template <int kAdd, bool kEscape>
   HWY_NOINLINE void run_single_op() {
     constexpr std::size_t kGroup = kAdd == 2 ? 2 : 4;  // c of each lane needs registers too
+    constexpr int kSteps = 4;                          // steps between refills
+    constexpr int kRefillAt = 3;                       // waiting lanes that make a vector refill
     const D d;
     const KernelOp& op = s_->kops[0];
     const Q lit = broadcast(op.add_lit);
@@ -729,53 +733,63 @@ class Machine {
       taken_ += static_cast<std::size_t>(__builtin_popcount(m));
       return m;
     };
+    // What a decided lane leaves for F, captured by masked stores (no branch per step).
+    HWY_ALIGN double cap[3][kGroup * 8];
+    __mmask8 pending[kGroup];  // lanes decided since their last refill
     for (std::size_t g = 0; g < kGroup; ++g) {
       h[g] = c[g] = {zero, zero, zero, zero};
       prev[g] = k[g] = idx[g] = ext[g] = zero;
+      pending[g] = 0;
       live[g] = load(g, 0xff);
     }
     for (;;) {
-      bool any = false;
+      // kSteps steps of every vector, without a branch on the data: a lane that decides
+      // stores its code and metrics, then idles on zeros.
+      for (int step = 0; step < kSteps; ++step) {
 #pragma GCC unroll 4
-      for (std::size_t g = 0; g < kGroup; ++g) {
-        if (!live[g]) continue;
-        any = true;
-        Q q = sqr(h[g]);
-        if (kAdd == 1) q = add(q, lit);
-        if (kAdd == 2) q = add(q, c[g]);
-        if (kAdd == 3) q.w = hn::Add(q.w, lit.w);
-        V metric;
-        M exit;
-        if (kEscape) {
-          metric = norm2(q);
-          exit = hn::Not(hn::Le(metric, r2));
-        } else {
-          metric = norm2(sub(q, h[g]));
-          exit = hn::Or(hn::Not(hn::Ge(metric, r2)), hn::Not(hn::IsFinite(metric)));
-        }
-        k[g] = hn::Add(k[g], one);
-        ext[g] = kEscape ? hn::Max(ext[g], metric) : hn::Min(ext[g], metric);
-        const __mmask8 now = live[g] & hn::Or(exit, hn::Eq(k[g], iters)).raw;
-        h[g] = q;
-        if (HWY_UNLIKELY(now != 0)) {
+        for (std::size_t g = 0; g < kGroup; ++g) {
+          Q q = sqr(h[g]);
+          if (kAdd == 1) q = add(q, lit);
+          if (kAdd == 2) q = add(q, c[g]);
+          if (kAdd == 3) q.w = hn::Add(q.w, lit.w);
+          V metric;
+          M exit;
+          if (kEscape) {
+            metric = norm2(q);
+            exit = hn::Not(hn::Le(metric, r2));
+          } else {
+            metric = norm2(sub(q, h[g]));
+            exit = hn::Or(hn::Not(hn::Ge(metric, r2)), hn::Not(hn::IsFinite(metric)));
+          }
+          k[g] = hn::Add(k[g], one);
+          ext[g] = kEscape ? hn::Max(ext[g], metric) : hn::Min(ext[g], metric);
+          const __mmask8 now = live[g] & hn::Or(exit, hn::Eq(k[g], iters)).raw;
           V code = hn::IfThenElse(exit, k[g], minus1);
           if (!kEscape) code = hn::IfThenElse(hn::IsFinite(metric), code, minus2);
-          const M m{now};
-          finished(m, code, metric, second(code, prev[g], ext[g]), idx[g]);
-          prev[g] = metric;
-          // Lanes the queue cannot refill idle on zeros.
-          const __mmask8 filled = load(g, now);
-          const __mmask8 idle = now & static_cast<__mmask8>(~filled);
-          if (idle) {
-            live[g] &= static_cast<__mmask8>(~idle);
-            h[g] = {V{_mm512_mask_mov_pd(h[g].w.raw, idle, zero.raw)},
-                    V{_mm512_mask_mov_pd(h[g].x.raw, idle, zero.raw)},
-                    V{_mm512_mask_mov_pd(h[g].y.raw, idle, zero.raw)},
-                    V{_mm512_mask_mov_pd(h[g].z.raw, idle, zero.raw)}};
-          }
-        } else {
+          _mm512_mask_store_pd(cap[0] + 8 * g, now, code.raw);
+          _mm512_mask_store_pd(cap[1] + 8 * g, now, metric.raw);
+          _mm512_mask_store_pd(cap[2] + 8 * g, now, second(code, prev[g], ext[g]).raw);
+          live[g] &= static_cast<__mmask8>(~now);
+          pending[g] |= now;
+          h[g] = {V{_mm512_mask_mov_pd(q.w.raw, now, zero.raw)},
+                  V{_mm512_mask_mov_pd(q.x.raw, now, zero.raw)},
+                  V{_mm512_mask_mov_pd(q.y.raw, now, zero.raw)},
+                  V{_mm512_mask_mov_pd(q.z.raw, now, zero.raw)}};
           prev[g] = metric;
         }
+      }
+      // Decided lanes to the finished orbits; refilled once enough of a vector waits.
+      bool any = false;
+      for (std::size_t g = 0; g < kGroup; ++g) {
+        const __mmask8 waiting = static_cast<__mmask8>(~live[g]);
+        if (pending[g] && (__builtin_popcount(waiting) >= kRefillAt || live[g] == 0)) {
+          const M m{pending[g]};
+          finished(m, hn::Load(d, cap[0] + 8 * g), hn::Load(d, cap[1] + 8 * g),
+                   hn::Load(d, cap[2] + 8 * g), idx[g]);
+          pending[g] = 0;
+          live[g] |= load(g, waiting);
+        }
+        any = any || live[g] != 0;
       }
       if (!any) break;
     }

@@ -12,12 +12,33 @@
 namespace qjulia::detail {
 namespace {
 
-// The corner values of local cell c.
-void cell_values(const Brick& br, int c, float v[8]) {
-  const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
-  for (int d = 0; d < 8; ++d)
-    v[d] = br.get(point_index(ci[0] + (d & 1), ci[1] + ((d >> 1) & 1), ci[2] + (d >> 2)));
-}
+// A brick's known values as an array of all its points (a thread's scratch): every value of a
+// pass read at the cost of a load.
+class Values {
+ public:
+  explicit Values(const Brick& br) : v_(scratch()) {
+    thread_local std::vector<float> known;
+    br.known_values(known);
+    std::size_t n = 0;
+    for (int w = 0; w < (kBrickPoints + 63) / 64; ++w)
+      for (std::uint64_t bits = br.known.w[w]; bits; bits &= bits - 1)
+        v_[w * 64 + __builtin_ctzll(bits)] = known[n++];
+  }
+  float operator[](int p) const { return v_[p]; }
+  // The corner values of local cell c.
+  void cell(int c, float v[8]) const {
+    const int p = point_index(c / 64, (c / 8) % 8, c % 8);
+    constexpr int kOffset[8] = {0, 81, 9, 90, 1, 82, 10, 91};
+    for (int d = 0; d < 8; ++d) v[d] = v_[p + kOffset[d]];
+  }
+
+ private:
+  static float* scratch() {
+    thread_local float values[kBrickPoints];
+    return values;
+  }
+  float* v_;
+};
 
 // The edge code of cube edge e of local cell (ci).
 int code_of(const CubeTables& t, const int ci[3], int e) {
@@ -170,56 +191,72 @@ std::pair<int, std::size_t> BrickNeighbours::find(int code) const {
   return {dir, static_cast<std::size_t>(it - list->begin())};
 }
 
-BrickVertices brick_vertices(const Brick& br, const Solid& solid, const GridGeometry& geo,
-                             const BrickMeshOptions& opts) {
+void brick_vertices(const Brick* const* bricks, std::size_t n, const Solid& solid,
+                    const GridGeometry& geo, const BrickMeshOptions& opts, BrickVertices* out) {
   const CubeTables& t = cube();
-  BrickVertices out;
-  out.key = br.key;
-  const int base[3] = {br.at.x * kBrick, br.at.y * kBrick, br.at.z * kBrick};
-  auto position = [&](int li, int lj, int lk) {
-    return Pos{geo.origin[0] + (base[0] + li) * geo.voxel,
-               geo.origin[1] + (base[1] + lj) * geo.voxel,
-               geo.origin[2] + (base[2] + lk) * geo.voxel};
-  };
-  // 1. The crossing edges of the surface cells that the brick owns, each once.
-  Bits<kEdgeCodes> seen;
-  std::vector<int> edges;
-  for (int c = 0; c < kBrickCells; ++c) {
-    if (!br.surface.test(c)) continue;
-    const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
-    float v[8];
-    cell_values(br, c, v);
-    for (int e = 0; e < 12; ++e) {
-      const int d0 = t.edge_corner[e], d1 = d0 | (1 << t.edge_axis[e]);
-      if ((v[d0] <= 0) == (v[d1] <= 0)) continue;
-      const int code = code_of(t, ci, e);
-      if (seen.test(code) || on_upper_face(code)) continue;
-      seen.set(code);
-      edges.push_back(code);
+  thread_local std::vector<Segment> segs;
+  thread_local std::vector<Pos> where;
+  segs.clear();
+  for (std::size_t b = 0; b < n; ++b) {
+    const Brick& br = *bricks[b];
+    BrickVertices& o = out[b];
+    o = BrickVertices();
+    o.key = br.key;
+    const int base[3] = {br.at.x * kBrick, br.at.y * kBrick, br.at.z * kBrick};
+    auto position = [&](int li, int lj, int lk) {
+      return Pos{geo.origin[0] + (base[0] + li) * geo.voxel,
+                 geo.origin[1] + (base[1] + lj) * geo.voxel,
+                 geo.origin[2] + (base[2] + lk) * geo.voxel};
+    };
+    // 1. The crossing edges of the surface cells that the brick owns, each once.
+    const Values values(br);
+    Bits<kEdgeCodes> seen;
+    std::vector<std::uint16_t>& edges = o.codes;
+    for (int w = 0; w < kBrickCells / 64; ++w)
+      for (std::uint64_t bits = br.surface.w[w]; bits; bits &= bits - 1) {
+        const int c = w * 64 + __builtin_ctzll(bits);
+        const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
+        float v[8];
+        values.cell(c, v);
+        for (int e = 0; e < 12; ++e) {
+          const int d0 = t.edge_corner[e], d1 = d0 | (1 << t.edge_axis[e]);
+          if ((v[d0] <= 0) == (v[d1] <= 0)) continue;
+          const int code = code_of(t, ci, e);
+          if (seen.test(code) || on_upper_face(code)) continue;
+          seen.set(code);
+          edges.push_back(static_cast<std::uint16_t>(code));
+        }
+      }
+    std::sort(edges.begin(), edges.end());
+    // 2. Their segments, refined with the group's.
+    for (const int code : edges) {
+      const int axis = code % 3, p = code / 3;
+      const int l[3] = {p / 81, (p / 9) % 9, p % 9};
+      int h[3] = {l[0], l[1], l[2]};
+      ++h[axis];
+      Segment sg;
+      sg.a = position(l[0], l[1], l[2]);
+      sg.b = position(h[0], h[1], h[2]);
+      sg.fa = values[point_index(l[0], l[1], l[2])];
+      sg.fb = values[point_index(h[0], h[1], h[2])];
+      segs.push_back(sg);
     }
   }
-  std::sort(edges.begin(), edges.end());
-  // 2. Their vertices on the boundary, all at once.
-  std::vector<Segment> segs(edges.size());
-  for (std::size_t i = 0; i < edges.size(); ++i) {
-    const int code = edges[i], axis = code % 3, p = code / 3;
-    const int l[3] = {p / 81, (p / 9) % 9, p % 9};
-    int h[3] = {l[0], l[1], l[2]};
-    ++h[axis];
-    segs[i].a = position(l[0], l[1], l[2]);
-    segs[i].b = position(h[0], h[1], h[2]);
-    segs[i].fa = br.get(point_index(l[0], l[1], l[2]));
-    segs[i].fb = br.get(point_index(h[0], h[1], h[2]));
+  // 3. The vertices on the boundary, all of the group's at once.
+  where.resize(segs.size());
+  const std::uint64_t evaluations = refine_segments(solid, segs.data(), segs.size(), opts.tolerance,
+                                                    opts.max_refine_steps, where.data());
+  std::size_t at = 0;
+  for (std::size_t b = 0; b < n; ++b) {
+    BrickVertices& o = out[b];
+    o.positions.resize(o.codes.size());
+    for (auto& p : o.positions) {
+      p = {static_cast<float>(where[at][0]), static_cast<float>(where[at][1]),
+           static_cast<float>(where[at][2])};
+      ++at;
+    }
   }
-  std::vector<Pos> where(edges.size());
-  out.evaluations += refine_segments(solid, segs.data(), segs.size(), opts.tolerance,
-                                     opts.max_refine_steps, where.data());
-  out.codes.assign(edges.begin(), edges.end());
-  out.positions.resize(edges.size());
-  for (std::size_t i = 0; i < edges.size(); ++i)
-    out.positions[i] = {static_cast<float>(where[i][0]), static_cast<float>(where[i][1]),
-                        static_cast<float>(where[i][2])};
-  return out;
+  if (n > 0) out[0].evaluations = evaluations;
 }
 
 BrickPlan plan_brick(const Brick& br, const Solid& solid, const GridGeometry& geo,
@@ -237,11 +274,12 @@ BrickPlan plan_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
   std::vector<Triangle> placed, fresh;
   std::vector<std::vector<std::uint8_t>> options;
   std::vector<std::pair<double, std::size_t>> by_area;
+  const Values values(br);
   for (int c = 0; c < kBrickCells; ++c) {
     if (!br.surface.test(c)) continue;
     const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
     float v[8];
-    cell_values(br, c, v);
+    values.cell(c, v);
     const std::uint16_t number = cell_case_index(v);
     out.cells.push_back((static_cast<std::uint32_t>(c) << 16) | number);
     const CellCase& cc = cell_case_at(number);

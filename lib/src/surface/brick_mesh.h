@@ -42,10 +42,12 @@ struct BrickVertices {
   std::uint64_t evaluations = 0;                ///< classifier calls
 };
 
-/// The vertices on the crossing edges of the surface cells of `brick` that it owns (every
-/// corner of a surface cell must be known), moved onto the boundary.
-BrickVertices brick_vertices(const Brick& brick, const Solid& solid, const GridGeometry& geo,
-                             const BrickMeshOptions& opts);
+/// The vertices on the crossing edges of the surface cells of each of the n bricks that it owns
+/// (every corner of a surface cell must be known), moved onto the boundary: out[b] for
+/// bricks[b]. The group's vertices are refined together, in shared batches of evaluations (all
+/// counted in out[0].evaluations).
+void brick_vertices(const Brick* const* bricks, std::size_t n, const Solid& solid,
+                    const GridGeometry& geo, const BrickMeshOptions& opts, BrickVertices* out);
 
 /// The edge vertices around a brick: its own and those of its neighbours in direction bits
 /// (x = 1, y = 2, z = 4, towards +; [0] is the brick itself), numbered from `base`.

@@ -307,11 +307,29 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
                         }
                       });
   };
-  // Pass one: the edge vertices.
+  // Pass one: the edge vertices, refined in groups of bricks that share their evaluations.
   std::vector<detail::BrickVertices> verts(nb);
-  each_brick(0.0, 0.35, [&](std::size_t i) {
-    verts[i] = detail::brick_vertices(*impl.bricks[i], *impl.solid, impl.geometry, bopts);
-  });
+  {
+    constexpr std::size_t kGroup = 16;
+    std::atomic<std::size_t> done{0};
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, nb, kGroup),
+        [&](const tbb::blocked_range<std::size_t>& r) {
+          if (opts.cancel && opts.cancel->requested()) throw Cancelled();
+          for (std::size_t i = r.begin(); i < r.end(); i += kGroup) {
+            const std::size_t n = std::min(kGroup, r.end() - i);
+            const detail::Brick* group[kGroup];
+            for (std::size_t k = 0; k < n; ++k) group[k] = impl.bricks[i + k].get();
+            detail::brick_vertices(group, n, *impl.solid, impl.geometry, bopts, &verts[i]);
+          }
+          const std::size_t k = done += r.size();
+          if ((k / 64) != ((k - r.size()) / 64)) {
+            std::lock_guard<std::mutex> lock(report_mutex);
+            report(0.35 * k / std::max<std::size_t>(nb, 1));
+          }
+        },
+        tbb::simple_partitioner());
+  }
   // Across ranks: the vertices of this rank's first plane go to the down rank (its faces use
   // them) and the keys of its last plane to the up rank (whose -x faces close against them).
   std::vector<std::size_t> first_plane;      // own bricks in the first plane
