@@ -25,6 +25,10 @@
 namespace qjulia {
 namespace {
 
+// Bricks with at most this many vertices (owned and foreign) pair their half-edges in a
+// matrix of counts (kPairingSlots^2 bytes a thread), the others in a hash table.
+constexpr std::size_t kPairingSlots = 1024;
+
 // What one brick contributes to the measures of the mesh.
 struct BrickMeasure {
   std::size_t edges = 0;       // undirected edges inside the brick (both faces here)
@@ -65,8 +69,9 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
   BrickMeasure bm;
   const std::size_t owned = r.edges + r.centres;
   const auto* tri = mesh.triangles.data() + r.face;
-  // Local slots: owned vertices, then foreign ones.
-  std::vector<std::uint32_t> foreign;
+  // Local slots: owned vertices, then foreign ones; each face corner's slot, found once.
+  thread_local std::vector<std::uint32_t> foreign, corner;
+  foreign.clear();
   for (std::size_t f = 0; f < r.faces; ++f)
     for (std::uint32_t v : tri[f])
       if (!r.owns(v)) foreign.push_back(v);
@@ -77,13 +82,16 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
     return static_cast<std::uint32_t>(
         owned + (std::lower_bound(foreign.begin(), foreign.end(), v) - foreign.begin()));
   };
-  detail::UnionFind uf(owned + foreign.size());
+  corner.resize(3 * r.faces);
+  for (std::size_t f = 0; f < r.faces; ++f)
+    for (int k = 0; k < 3; ++k) corner[3 * f + k] = slot(tri[f][k]);
+  const std::size_t slots = owned + foreign.size();
+  detail::UnionFind uf(slots);
   for (std::size_t f = 0; f < r.faces; ++f) {
-    const std::uint32_t a = slot(tri[f][0]), b = slot(tri[f][1]), c = slot(tri[f][2]);
-    uf.unite(a, b);
-    uf.unite(b, c);
+    uf.unite(corner[3 * f], corner[3 * f + 1]);
+    uf.unite(corner[3 * f + 1], corner[3 * f + 2]);
   }
-  std::vector<std::uint32_t> comp_of(owned + foreign.size(), UINT32_MAX);
+  std::vector<std::uint32_t> comp_of(slots, UINT32_MAX);
   for (std::size_t s = 0; s < comp_of.size(); ++s) {
     const std::uint32_t root = uf.find(static_cast<std::uint32_t>(s));
     if (comp_of[root] == UINT32_MAX) {
@@ -106,7 +114,7 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
     bm.links.push_back({foreign[f], comp_of[owned + f]});
   for (std::size_t f = 0; f < r.faces; ++f) {
     const auto& t = tri[f];
-    const std::uint32_t c = comp_of[slot(t[0])];
+    const std::uint32_t c = comp_of[corner[3 * f]];
     face_comp[f] = c;
     double p[3][3];
     for (int k = 0; k < 3; ++k)
@@ -126,9 +134,47 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
     cm.volume += volume;
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || area == 0) ++bm.degenerate;
   }
-  // The half-edges, paired in a hash table by their edge: each edge inside the brick has its
-  // two half-edges here, opposite; one alone must be on a brick face (`border`, in the same
-  // direction), paired with the neighbour's later.
+  // The half-edges: each edge inside the brick has its two half-edges here, opposite; one
+  // alone must be on a brick face (`border`, in the same direction), paired with the
+  // neighbour's later. Counted in a matrix over the local slots (a byte per ordered pair: the
+  // faces' half-edges in the low bits, 16 for a border half-edge), whose touched entries are
+  // cleared after.
+  if (slots <= kPairingSlots) {
+    thread_local std::vector<std::uint8_t> count(kPairingSlots * kPairingSlots, 0);
+    auto at = [&](std::uint32_t a, std::uint32_t b) -> std::uint8_t& {
+      return count[static_cast<std::size_t>(a) * slots + b];
+    };
+    thread_local std::vector<std::array<std::uint32_t, 2>> border_slots;
+    border_slots.clear();
+    for (int d = 0; d < 6; ++d)
+      for (const auto& e : border[d]) border_slots.push_back({slot(e[0]), slot(e[1])});
+    for (std::size_t h = 0; h < 3 * r.faces; ++h) {
+      std::uint8_t& c = at(corner[h], corner[h - h % 3 + (h + 1) % 3]);
+      if ((c & 15) != 15) ++c;
+    }
+    for (const auto& e : border_slots) {
+      std::uint8_t& c = at(e[0], e[1]);
+      c = static_cast<std::uint8_t>(c & 16 ? c | 32 : c | 16);  // 32: listed twice
+    }
+    for (std::size_t h = 0; h < 3 * r.faces; ++h) {
+      const std::uint32_t a = corner[h], b = corner[h - h % 3 + (h + 1) % 3];
+      const std::uint8_t x = at(a, b), y = at(b, a);
+      if (a == b) {
+        ++bm.problems;  // an edge from a vertex to itself
+      } else if (x == 1 && y == 1) {
+        bm.edges += a < b;                // an edge inside the brick, counted once
+      } else if (!(x == 17 && y == 0)) {  // else a border half-edge
+        ++bm.problems;
+      }
+    }
+    for (const auto& e : border_slots)
+      if (at(e[0], e[1]) != 17) ++bm.problems;  // a border half-edge no face has
+    for (std::size_t h = 0; h < 3 * r.faces; ++h)
+      at(corner[h], corner[h - h % 3 + (h + 1) % 3]) = 0;
+    for (const auto& e : border_slots) at(e[0], e[1]) = 0;
+    return bm;
+  }
+  // A brick with very many vertices: the half-edges in a hash table by their edge.
   struct Slot {
     std::uint64_t key;                               // (smaller index << 32 | larger) + 1; 0: empty
     std::uint16_t up, down, border_up, border_down;  // half-edges smaller -> larger and back
