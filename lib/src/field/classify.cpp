@@ -8,7 +8,6 @@
 #include "field/program.h"
 #include "field/validated.h"
 #include "qjulia/base/error.h"
-#include "qjulia/grid/sample.h"
 
 namespace qjulia {
 namespace {
@@ -221,6 +220,19 @@ Solid::Solid(const Params& params) : classifier_(params) {
     clip_.push_back(c);
   }
   voxel_ = grid_geometry(params).voxel;
+}
+
+Classifier Classifier::at_resolution(int resolution) const {
+  Classifier c = *this;
+  c.params_.resolution = resolution;
+  return c;
+}
+
+Solid Solid::at_resolution(int resolution) const {
+  Solid s = *this;
+  s.classifier_ = classifier_.at_resolution(resolution);
+  s.voxel_ = grid_geometry(s.classifier_.params()).voxel;
+  return s;
 }
 
 double Solid::constraint(double x, double y, double z) const {

@@ -1,5 +1,6 @@
 #include "qjulia/field/params.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -439,5 +440,22 @@ Params preset(const std::string& name) {
 }
 
 std::string preset_description(const std::string& name) { return preset(name).description; }
+
+GridGeometry grid_geometry(const Params& params) {
+  GridGeometry g;
+  double longest = 0;
+  for (int a = 0; a < 3; ++a)
+    longest = std::max(longest, params.bounds.max[a] - params.bounds.min[a]);
+  g.voxel = longest / params.resolution;
+  for (int a = 0; a < 3; ++a) {
+    // Points sit at the centres of the voxels, so no point lies on a wall of the box and caps
+    // never pass through grid points.
+    g.origin[a] = params.bounds.min[a] + 0.5 * g.voxel;
+    const double cells = (params.bounds.max[a] - params.bounds.min[a]) / g.voxel;
+    // Points strictly inside the box: (i + 1/2) * voxel < extent.
+    g.points[a] = std::max(1, static_cast<int>(std::ceil(cells - 0.5 - 1e-9)));
+  }
+  return g;
+}
 
 }  // namespace qjulia

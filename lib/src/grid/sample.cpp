@@ -22,23 +22,6 @@ std::once_flag g_openvdb_init;
 
 }  // namespace
 
-GridGeometry grid_geometry(const Params& params) {
-  GridGeometry g;
-  double longest = 0;
-  for (int a = 0; a < 3; ++a)
-    longest = std::max(longest, params.bounds.max[a] - params.bounds.min[a]);
-  g.voxel = longest / params.resolution;
-  for (int a = 0; a < 3; ++a) {
-    // Points sit at the centres of the voxels, so no point lies on a wall of the box and caps
-    // never pass through grid points.
-    g.origin[a] = params.bounds.min[a] + 0.5 * g.voxel;
-    const double cells = (params.bounds.max[a] - params.bounds.min[a]) / g.voxel;
-    // Points strictly inside the box: (i + 1/2) * voxel < extent.
-    g.points[a] = std::max(1, static_cast<int>(std::ceil(cells - 0.5 - 1e-9)));
-  }
-  return g;
-}
-
 SampledGrid::SampledGrid() : impl_(std::make_unique<Impl>()) {}
 SampledGrid::~SampledGrid() = default;
 SampledGrid::SampledGrid(SampledGrid&&) noexcept = default;

@@ -34,13 +34,10 @@ struct Probe {
   std::uint64_t cells = 0, bricks = 0;
 };
 
-Probe probe(const Params& params, int resolution, const CancelToken* cancel) {
-  Params p = params;
-  p.resolution = resolution;
-  const Solid solid(p);
+Probe probe(const Solid& solid, int resolution, const CancelToken* cancel) {
   SampleOptions so;
   so.cancel = cancel;
-  const SampledGrid grid = sample(solid, so);
+  const SampledGrid grid = sample(solid.at_resolution(resolution), so);
   return {grid.crossing_cells(), grid.bricks()};
 }
 
@@ -126,11 +123,16 @@ RunEstimate estimate_at(const Params& params, const RunPlan& plan, const RunEsti
 }
 
 RunEstimate estimate_run(const Params& params, const RunPlan& plan) {
+  return estimate_run(Solid(params), plan);
+}
+
+RunEstimate estimate_run(const Solid& solid, const RunPlan& plan) {
+  const Params& params = solid.classifier().params();
   const int n = params.resolution;
   RunEstimate e;
   if (n <= 64) {
     // Small enough to sample itself (a few milliseconds).
-    const Probe p = probe(params, n, plan.cancel);
+    const Probe p = probe(solid, n, plan.cancel);
     e.probe_resolution = n;
     e.probe_cells = p.cells;
     e.probe_bricks = p.bricks;
@@ -139,8 +141,8 @@ RunEstimate estimate_run(const Params& params, const RunPlan& plan) {
     // Two samplings at a quarter and an eighth of the run (at most 256 and 128): the crossing
     // cells grow as a power of the resolution (2 for a smooth surface, more for a fractal).
     const int fine = std::min(256, n / 4), coarse = fine / 2;
-    const std::uint64_t a = probe(params, coarse, plan.cancel).cells;
-    const Probe p = probe(params, fine, plan.cancel);
+    const std::uint64_t a = probe(solid, coarse, plan.cancel).cells;
+    const Probe p = probe(solid, fine, plan.cancel);
     const std::uint64_t b = p.cells;
     e.probe_resolution = fine;
     e.probe_cells = b;

@@ -74,9 +74,10 @@ RunPlan run_plan(const PipelineOptions& opts) {
 
 // The estimate of the run and the limit it is checked against (described, then `where`), in
 // `stats`; refuses the run when it does not fit (check_run).
-void estimate_and_check(const Params& params, const RunPlan& plan, const PipelineOptions& opts,
+void estimate_and_check(const Solid& solid, const RunPlan& plan, const PipelineOptions& opts,
                         RunStats& stats, const std::string& where = "") {
-  stats.estimate = estimate_run(params, plan);
+  const Params& params = solid.classifier().params();
+  stats.estimate = estimate_run(solid, plan);
   const MemoryLimits limits = memory_limits(opts.max_memory);
   stats.memory_limit = limits.effective();
   stats.memory_limit_source = limits.describe() + where;
@@ -156,7 +157,7 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   // What the run will need, before it starts.
   {
     timer.start("estimate");
-    estimate_and_check(params, run_plan(opts), opts, stats);
+    estimate_and_check(solid, run_plan(opts), opts, stats);
     timer.stop();
   }
 
@@ -288,7 +289,7 @@ DistributedRun run_pipeline_distributed(const Params& params, const PipelineOpti
     RunPlan plan = run_plan(opts);
     plan.ranks = comm.size();
     plan.gathered = gather;
-    estimate_and_check(params, plan, opts, stats, " (rank 0)");
+    estimate_and_check(solid, plan, opts, stats, " (rank 0)");
   });
   timer.stop();
 

@@ -23,7 +23,7 @@ struct Orbit {
   /// The refinement value: max_k s_k (escape) or -min_k t_k (cut-off) over the orbit up to its
   /// decision, clamped to +-1e6: <= 0 exactly in the solid, and continuous across the boundary.
   float root = 0;
-  Quat last;           ///< the last finite iterate
+  Quat last;  ///< the last finite iterate
 };
 
 /// Classifies sampled points (x, y, z) for a validated parameter set. Thread-safe, cheap to
@@ -59,10 +59,12 @@ class Classifier {
   const detail::KernelSetup* kernel() const;
 
   const Params& params() const { return params_; }
+  /// The same classifier for the grid of another resolution (nothing is compiled again).
+  Classifier at_resolution(int resolution) const;
 
  private:
-  std::uint64_t values(const double* x, const double* y, const double* z, std::size_t n,
-                       float* out, bool root) const;
+  std::uint64_t values(const double* x, const double* y, const double* z, std::size_t n, float* out,
+                       bool root) const;
   Params params_;
   Formula formula_;
   std::shared_ptr<const detail::KernelSetup> kernel_;  // null: the scalar path
@@ -76,6 +78,9 @@ class Classifier {
 class Solid {
  public:
   explicit Solid(const Params& params);
+  /// The same solid on the grid of another resolution (nothing is validated or compiled again):
+  /// for the samplings of the memory estimate.
+  Solid at_resolution(int resolution) const;
   const Classifier& classifier() const { return classifier_; }
   /// Field of the whole solid at (x, y, z): the constraint in voxels where it excludes the
   /// point, else max(F, constraint in voxels), so caps are flat and F is never evaluated
@@ -106,8 +111,8 @@ class Solid {
   bool has_clip() const { return !clip_.empty(); }
 
  private:
-  std::uint64_t values(const double* x, const double* y, const double* z, std::size_t n,
-                       float* out, bool root) const;
+  std::uint64_t values(const double* x, const double* y, const double* z, std::size_t n, float* out,
+                       bool root) const;
   Classifier classifier_;
   std::array<double, 3> min_, max_;
   std::vector<ClipPlane> clip_;  // normalised

@@ -148,4 +148,16 @@ const char* to_string(Method m);
 const char* to_string(Mode m);
 const char* to_string(ColorMode m);
 
+/// Where the grid points of a parameter set are: point (i, j, k) is at origin + (i, j, k) *
+/// voxel for 0 <= i < points[0] etc., at the centres of voxels of the box, so the walls of the
+/// box lie half a voxel beyond the outermost points.
+struct GridGeometry {
+  std::array<double, 3> origin{0, 0, 0};  ///< bounds.min + voxel / 2
+  double voxel = 1.0;                     ///< longest side of the box / resolution
+  std::array<int, 3> points{0, 0, 0};
+};
+
+/// The grid of `params` (not validated here).
+GridGeometry grid_geometry(const Params& params);
+
 }  // namespace qjulia

@@ -11,18 +11,6 @@
 
 namespace qjulia {
 
-/// Where the grid points of a parameter set are: point (i, j, k) is at origin + (i, j, k) *
-/// voxel for 0 <= i < points[0] etc., at the centres of voxels of the box, so the walls of the
-/// box lie half a voxel beyond the outermost points.
-struct GridGeometry {
-  std::array<double, 3> origin{0, 0, 0};  ///< bounds.min + voxel / 2
-  double voxel = 1.0;                     ///< longest side of the box / resolution
-  std::array<int, 3> points{0, 0, 0};
-};
-
-/// The grid of `params` (not validated here).
-GridGeometry grid_geometry(const Params& params);
-
 namespace detail {
 struct Distribution;
 }
@@ -69,7 +57,7 @@ class SampledGrid {
   /// @throws std::runtime_error when the file cannot be written.
   void write_vdb(const std::string& path, const std::string& params_json) const;
 
-  struct Impl;  ///< internal (lib/src/detail/grid_impl.h)
+  struct Impl;  ///< internal (lib/src/grid/grid_impl.h)
   Impl& impl() { return *impl_; }
   const Impl& impl() const { return *impl_; }
 

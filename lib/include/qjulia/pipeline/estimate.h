@@ -9,6 +9,7 @@
 
 #include "qjulia/base/memory.h"
 #include "qjulia/base/progress.h"
+#include "qjulia/field/classify.h"
 #include "qjulia/field/params.h"
 #include "qjulia/io/mesh_io.h"
 
@@ -45,6 +46,8 @@ struct RunEstimate {
 /// coefficients are measured on this machine's builds (docs/design.md, "Memory").
 /// @throws InvalidInput for invalid params; Cancelled.
 RunEstimate estimate_run(const Params& params, const RunPlan& plan);
+/// The same for the solid of a run, whose compiled formula the probes reuse.
+RunEstimate estimate_run(const Solid& solid, const RunPlan& plan);
 
 /// The peak memory of the same run at another resolution, by the same extrapolation.
 RunEstimate estimate_at(const Params& params, const RunPlan& plan, const RunEstimate& base,
