@@ -3,6 +3,8 @@
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/intersections.h>
 
+#include <algorithm>
+
 namespace qjulia::detail {
 namespace {
 
@@ -10,6 +12,24 @@ using K = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Point = K::Point_3;
 
 Point point(const std::array<double, 3>& p) { return Point(p[0], p[1], p[2]); }
+
+// True when the bounding boxes of the points a[0..na) and b[0..nb) are disjoint: then nothing
+// of the one meets the other (an exact test, made before the predicates).
+bool boxes_apart(const std::array<double, 3>* a, int na, const std::array<double, 3>* b, int nb) {
+  for (int k = 0; k < 3; ++k) {
+    double alo = a[0][k], ahi = a[0][k], blo = b[0][k], bhi = b[0][k];
+    for (int i = 1; i < na; ++i) {
+      alo = std::min(alo, a[i][k]);
+      ahi = std::max(ahi, a[i][k]);
+    }
+    for (int i = 1; i < nb; ++i) {
+      blo = std::min(blo, b[i][k]);
+      bhi = std::max(bhi, b[i][k]);
+    }
+    if (ahi < blo || bhi < alo) return true;
+  }
+  return false;
+}
 
 }  // namespace
 
@@ -37,15 +57,23 @@ bool triangles_cross(const Triangle& a, const Triangle& b) {
     return CGAL::coplanar(u, v, pa[p], pb[q]) &&
            CGAL::coplanar_orientation(u, v, pa[p], pb[q]) == CGAL::POSITIVE;
   }
-  const K::Triangle_3 ta(pa[0], pa[1], pa[2]), tb(pb[0], pb[1], pb[2]);
   if (shared == 1) {
     // A shared corner: they cross when the edge opposite it in one meets the other.
     int i = 0;
     while (at[i] < 0) ++i;
     const int j = at[i];
+    const std::array<double, 3> ea[2] = {a[(i + 1) % 3], a[(i + 2) % 3]};
+    const std::array<double, 3> eb[2] = {b[(j + 1) % 3], b[(j + 2) % 3]};
+    const bool b_edge_apart = boxes_apart(a.data(), 3, eb, 2);
+    const bool a_edge_apart = boxes_apart(b.data(), 3, ea, 2);
+    if (b_edge_apart && a_edge_apart) return false;
+    const K::Triangle_3 ta(pa[0], pa[1], pa[2]), tb(pb[0], pb[1], pb[2]);
     const K::Segment_3 sa(pa[(i + 1) % 3], pa[(i + 2) % 3]), sb(pb[(j + 1) % 3], pb[(j + 2) % 3]);
-    return CGAL::do_intersect(ta, sb) || CGAL::do_intersect(tb, sa);
+    return (!b_edge_apart && CGAL::do_intersect(ta, sb)) ||
+           (!a_edge_apart && CGAL::do_intersect(tb, sa));
   }
+  if (boxes_apart(a.data(), 3, b.data(), 3)) return false;
+  const K::Triangle_3 ta(pa[0], pa[1], pa[2]), tb(pb[0], pb[1], pb[2]);
   return CGAL::do_intersect(ta, tb);
 }
 
