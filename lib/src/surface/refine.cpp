@@ -17,10 +17,10 @@ struct State {
   double lo = 0, hi = 1;    // lo keeps the sign of a, hi the sign of b
   double glo = 0, ghi = 0;  // the refinement values there, when known
   bool lo_known = false, hi_known = false;
-  double t = 0;  // the point being evaluated
-  int side = 0;  // Illinois: which end was kept last (-1 lo, +1 hi)
+  bool plane = false;  // the outside end is outside only because of the box or a clip plane
+  double t = 0;        // the point being evaluated
+  int side = 0;        // Illinois: which end was kept last (-1 lo, +1 hi)
   int steps = 0;
-  bool done = false;
 };
 
 // Values of the refinement function beyond this are "far" (an orbit decided early), not a
@@ -31,32 +31,29 @@ constexpr float kFar = 1e5f;
 
 std::uint64_t refine_segments(const Solid& solid, const Segment* seg, std::size_t n, double tol_t,
                               int max_steps, std::array<double, 3>* out) {
-  std::vector<State> st(n);
-  std::vector<double> x, y, z;
-  std::vector<float> f;
-  std::vector<std::size_t> which;
+  thread_local std::vector<State> st;
+  thread_local std::vector<double> x, y, z;
+  thread_local std::vector<float> f;
+  thread_local std::vector<std::size_t> which, active;
+  st.assign(n, State());
+  x.resize(n);
+  y.resize(n);
+  z.resize(n);
+  f.resize(n);
+  which.resize(n);
+  std::size_t queued = 0;
   std::uint64_t evaluations = 0;
-  auto evaluate = [&](bool root) {
-    f.resize(which.size());
-    if (root)
-      solid.root_field(x.data(), y.data(), z.data(), which.size(), f.data());
-    else
-      solid.field(x.data(), y.data(), z.data(), which.size(), f.data());
-    evaluations += which.size();
+  auto evaluate = [&]() {
+    solid.root_field(x.data(), y.data(), z.data(), queued, f.data());
+    evaluations += queued;
   };
   auto queue = [&](std::size_t i, double t) {
     const auto p = lerp(seg[i].a, seg[i].b, t);
-    x.push_back(p[0]);
-    y.push_back(p[1]);
-    z.push_back(p[2]);
-    which.push_back(i);
+    x[queued] = p[0];
+    y[queued] = p[1];
+    z[queued] = p[2];
+    which[queued++] = i;
     st[i].t = t;
-  };
-  auto clear = [&]() {
-    x.clear();
-    y.clear();
-    z.clear();
-    which.clear();
   };
   // An end outside only because of the box or a clip plane: the boundary is the plane when the
   // point on it is in the solid, which makes caps exactly flat. Else the first guess: where the
@@ -70,7 +67,8 @@ std::uint64_t refine_segments(const Solid& solid, const Segment* seg, std::size_
     s.lo_known = a_inside;
     s.hi_known = !a_inside;
     const auto& o = a_inside ? seg[i].b : seg[i].a;
-    if (solid.constraint(o[0], o[1], o[2]) > 0) {
+    s.plane = solid.constraint(o[0], o[1], o[2]) > 0;
+    if (s.plane) {
       const double c = solid.constraint_crossing(a_inside ? seg[i].a : seg[i].b, o);
       const double tc = a_inside ? c : 1 - c;
       queue(i, std::clamp(tc, kEndMargin, 1 - kEndMargin));
@@ -80,15 +78,13 @@ std::uint64_t refine_segments(const Solid& solid, const Segment* seg, std::size_
       queue(i, t);
     }
   }
-  evaluate(true);
-  for (std::size_t q = 0; q < which.size(); ++q) {
+  evaluate();
+  active.clear();
+  for (std::size_t q = 0; q < queued; ++q) {
     const std::size_t i = which[q];
     State& s = st[i];
-    const auto& o = seg[i].fa <= 0 ? seg[i].b : seg[i].a;
-    const bool plane = solid.constraint(o[0], o[1], o[2]) > 0;
-    if (plane && f[q] <= 0) {
+    if (s.plane && f[q] <= 0) {
       out[i] = lerp(seg[i].a, seg[i].b, s.t);
-      s.done = true;
       continue;
     }
     ++s.steps;
@@ -101,14 +97,14 @@ std::uint64_t refine_segments(const Solid& solid, const Segment* seg, std::size_
       s.ghi = f[q];
       s.hi_known = true;
     }
+    active.push_back(i);
   }
-  clear();
   // Then regula falsi on the refinement values with the Illinois rule (the end kept twice has
   // its value halved, so both ends close in), bisection while an end's value is unknown or far.
-  for (;;) {
-    for (std::size_t i = 0; i < n; ++i) {
+  while (!active.empty()) {
+    queued = 0;
+    for (const std::size_t i : active) {
       State& s = st[i];
-      if (s.done) continue;
       const bool smooth = s.lo_known && s.hi_known && std::abs(s.glo) < kFar &&
                           std::abs(s.ghi) < kFar && s.glo != s.ghi;
       if (s.steps >= max_steps || !(s.hi - s.lo > tol_t)) {
@@ -117,7 +113,6 @@ std::uint64_t refine_segments(const Solid& solid, const Segment* seg, std::size_
         // Never on a grid point: a vertex there would coincide with the vertices of the other
         // edges of that point and leave zero-area triangles.
         out[i] = lerp(seg[i].a, seg[i].b, std::clamp(t, kEndMargin, 1 - kEndMargin));
-        s.done = true;
         continue;
       }
       double t = smooth ? (s.glo * s.hi - s.ghi * s.lo) / (s.glo - s.ghi) : 0.5 * (s.lo + s.hi);
@@ -126,12 +121,14 @@ std::uint64_t refine_segments(const Solid& solid, const Segment* seg, std::size_
         t = std::clamp(t, s.lo + margin, s.hi - margin);
       queue(i, t);
     }
-    if (which.empty()) break;
-    evaluate(true);
-    for (std::size_t q = 0; q < which.size(); ++q) {
-      State& s = st[which[q]];
+    if (queued == 0) break;
+    evaluate();
+    active.clear();
+    for (std::size_t q = 0; q < queued; ++q) {
+      const std::size_t i = which[q];
+      State& s = st[i];
       ++s.steps;
-      const bool a_inside = seg[which[q]].fa <= 0;
+      const bool a_inside = seg[i].fa <= 0;
       const bool moves_lo = (f[q] <= 0) == a_inside;
       if (moves_lo) {
         s.lo = s.t;
@@ -146,8 +143,8 @@ std::uint64_t refine_segments(const Solid& solid, const Segment* seg, std::size_
         if (s.side == 1) s.glo *= 0.5f;
         s.side = 1;
       }
+      active.push_back(i);
     }
-    clear();
   }
   return evaluations;
 }
