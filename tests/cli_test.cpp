@@ -191,6 +191,26 @@ TEST_F(Cli, ParamsRejectsBadParametersLikeMesh) {
   expect_rejected("params --bailout -1", "bailout", inputs);
 }
 
+TEST_F(Cli, AnEmptySolidWritesNothingAndAClippedOneSaysTheClipPlanesEmptiedIt) {
+  // Escape method with a bailout below the box's smallest |h|: no point is in the solid.
+  expect_rejected("mesh --preset classic-julia --resolution 24 --bailout 0.001 -o m.ply",
+                  "no grid point of the box is in it");
+  // A clip plane that keeps nothing of the box.
+  expect_rejected("mesh --preset classic-julia --resolution 24 --clip 1,0,0,-5 -o m.ply",
+                  "no grid point of the box on the kept side of the clip planes is in it");
+}
+
+TEST_F(Cli, ADecimationThatStopsAboveItsTargetSaysSoOnStderr) {
+  // Newton's cubic at 48 has a genus far too high for 500 faces: the guard stops first.
+  const CliRun r = run("mesh --resolution 48 --faces 500 --quiet -o m.ply");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("note: decimation stopped at"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("above the 500 asked for"), std::string::npos) << r.err;
+  const CliRun ok = run("mesh --preset unit-ball --resolution 48 --faces 2000 --quiet -o b.ply");
+  ASSERT_EQ(ok.code, 0) << ok.err;
+  EXPECT_EQ(ok.err.find("note:"), std::string::npos) << ok.err;
+}
+
 TEST_F(Cli, AnUnknownCommandExitsTwo) {
   const CliRun r = run("frobnicate");
   EXPECT_EQ(r.code, 2);

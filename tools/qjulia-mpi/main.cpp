@@ -56,10 +56,7 @@ int run(int argc, char** argv, qjulia::mpi::MpiComm& comm) {
   DistributedRun run = run_pipeline_distributed(cmd->params, popts, comm);
   RunStats& stats = run.result.stats;
   if (comm.sum(stats.measure.faces) == 0)  // rank 0's measures are the whole mesh's
-    throw InvalidInput(
-        "the solid is empty with these parameters (no grid point of the box is in it); "
-        "nothing written. Hint: check the bailout, the iterations and the box (qjulia params "
-        "shows them)");
+    throw InvalidInput(empty_solid_message(cmd->params) + cli::kEmptySolidHint);
   ExportOptions eopts;
   eopts.params_json = cmd->params_json;
   eopts.unit = stats.unit;

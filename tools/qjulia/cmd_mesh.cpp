@@ -17,10 +17,7 @@ int cmd_mesh(const Tokens& tokens, const CancelToken& cancel) {
   PipelineResult result = run_pipeline(cmd->params, popts);
 
   if (result.mesh.triangles.empty())
-    throw InvalidInput(
-        std::string("the solid is empty with these parameters (no grid point of the box "
-                    "is in it); nothing written. Hint: check the bailout, the "
-                    "iterations and the box (qjulia params shows them)"));
+    throw InvalidInput(empty_solid_message(cmd->params) + kEmptySolidHint);
   ExportOptions eopts;
   eopts.params_json = cmd->params_json;
   eopts.unit = result.stats.unit;

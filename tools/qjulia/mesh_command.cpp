@@ -58,6 +58,10 @@ run:
 
 }  // namespace
 
+const char* const kEmptySolidHint =
+    "; nothing written. Hint: check the bailout, the iterations, the box and the clip planes "
+    "(qjulia params shows them)";
+
 std::unique_ptr<MeshCommand> parse_mesh_command(const std::vector<std::string>& tokens,
                                                 const CancelToken& cancel,
                                                 const std::string& program) {
@@ -68,6 +72,7 @@ std::unique_ptr<MeshCommand> parse_mesh_command(const std::vector<std::string>& 
   const auto preview_specs = render_option_specs("preview-");
   specs.insert(specs.end(), preview_specs.begin(), preview_specs.end());
   auto cmd = std::make_unique<MeshCommand>();
+  cmd->program = program;
   cmd->args = parse_args(tokens, specs, "mesh");
   const ParsedArgs& args = cmd->args;
   if (args.has("help")) {
@@ -140,6 +145,20 @@ void finish_mesh_command(MeshCommand& cmd, RunStats& stats, const TriMesh* mesh,
   if (cmd.stats_path) std::printf("stats: %s\n", cmd.stats_path->c_str());
   if (cmd.vdb) std::printf("grid:  %s\n", cmd.vdb->c_str());
   if (cmd.preview) std::printf("preview: %s\n", cmd.preview->c_str());
+  if (stats.decimate && !stats.decimate->target_reached) {
+    const auto& d = *stats.decimate;
+    const auto& mp = cmd.params.mesh;
+    if (mp.faces && d.faces_after > static_cast<std::size_t>(*mp.faces))
+      std::fprintf(stderr,
+                   "%s: note: decimation stopped at %zu faces, above the %lld asked for "
+                   "(collapsing more edges would change the topology%s)\n",
+                   cmd.program.c_str(), d.faces_after, *mp.faces,
+                   mp.max_error ? " or exceed --max-error" : "");
+    else
+      std::fprintf(stderr,
+                   "%s: note: the decimated mesh is %.3g from the input, above --max-error\n",
+                   cmd.program.c_str(), d.hausdorff);
+  }
   double total = 0;
   for (const auto& [stage, s] : stats.timings) total += s;
   std::printf("evaluations: %llu grid (%.2f%% of %llu dense) + %llu refinement, %.2f s\n",

@@ -18,6 +18,7 @@ namespace qjulia::cli {
 /// What `mesh` was asked for, parsed and checked before any work: every number in its range,
 /// the output format known, every output claimed (not an input, not a directory or device).
 struct MeshCommand {
+  std::string program;  ///< "qjulia mesh", for messages
   ParsedArgs args;
   std::string out;
   Params params;
@@ -28,6 +29,9 @@ struct MeshCommand {
   std::unique_ptr<ThreadLimit> threads;
   OutputFiles written;  ///< removed again unless committed
 };
+
+/// What follows empty_solid_message() when `mesh` writes nothing because the solid is empty.
+extern const char* const kEmptySolidHint;
 
 /// Parses the arguments of `mesh`; null when --help was asked for (and printed). `program`
 /// names the command in the help ("qjulia mesh").

@@ -148,6 +148,13 @@ void finish_mesh(const Params& params, const PipelineOptions& opts, TriMesh& mes
 
 const char* version() { return QJULIA_VERSION; }
 
+std::string empty_solid_message(const Params& params) {
+  return params.mesh.clip.empty()
+             ? "the solid is empty with these parameters (no grid point of the box is in it)"
+             : "the solid is empty with these parameters (no grid point of the box on the kept "
+               "side of the clip planes is in it)";
+}
+
 PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   const Solid solid(params);  // validates and compiles, once for the whole run
   PipelineResult result;

@@ -165,7 +165,7 @@ std::shared_ptr<const PreviewMesh> Api::preview_mesh(const Params& params,
   popts.outputs = {MeshFormat::kGlb};
   const auto begin = Clock::now();
   PipelineResult result = run_pipeline(params, popts);
-  if (result.mesh.triangles.empty()) throw InvalidInput(source + ": " + kEmptySolidMessage);
+  if (result.mesh.triangles.empty()) throw InvalidInput(source + ": " + empty_solid(params));
   auto mesh = std::make_shared<PreviewMesh>();
   mesh->mesh = std::move(result.mesh);
   mesh->stats = std::move(result.stats);
@@ -309,7 +309,7 @@ Reply Api::guarded(const std::function<Reply()>& route) {
   } catch (const InvalidInput& e) {
     json j = {{"error", e.what()}};
     add_position(j, e.what());
-    if (std::string(e.what()).find(kEmptySolidMessage) != std::string::npos) j["empty"] = true;
+    if (says_empty_solid(e.what())) j["empty"] = true;
     return json_reply(j, 400);
   } catch (const Cancelled&) {
     return error(503, "the server is shutting down");

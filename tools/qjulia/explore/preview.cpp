@@ -4,9 +4,14 @@
 
 namespace qjulia::explore {
 
-const char* const kEmptySolidMessage =
-    "the solid is empty with these parameters (no grid point of the box is in it). Hint: "
-    "check the bailout, the iterations and the box";
+std::string empty_solid(const Params& params) {
+  return empty_solid_message(params) +
+         ". Hint: check the bailout, the iterations, the box and the clip planes";
+}
+
+bool says_empty_solid(const std::string& message) {
+  return message.find("the solid is empty") != std::string::npos;
+}
 
 void PreviewLane::run(const std::function<void(const CancelToken&)>& job) {
   std::shared_ptr<CancelToken> token;

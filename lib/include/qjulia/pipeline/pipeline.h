@@ -92,6 +92,10 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts = 
 /// The --stats JSON of a run (docs/design.md's keys and more).
 std::string stats_to_json(const RunStats& stats, const Params& params);
 
+/// What to tell a user whose parameters give an empty solid (no grid point of the box, or of
+/// its part the clip planes keep, is in the solid), without a hint.
+std::string empty_solid_message(const Params& params);
+
 /// The library version, "MAJOR.MINOR.PATCH".
 const char* version();
 
