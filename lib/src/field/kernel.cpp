@@ -161,9 +161,14 @@ HWY_INLINE Q analytic(OpCode code, const Q& q, double x) {
   const Plane p = split(q);
   const V zero = hn::Zero(d), one = hn::Set(d, 1.0), half = hn::Set(d, 0.5);
   auto within = [&](V v, double lim) { return hn::Le(hn::Abs(v), hn::Set(d, lim)); };
-  // Lanes for the scalar path: non-finite input, extreme magnitudes, or beyond the ranges.
+  // Lanes for the scalar path: non-finite input, extreme magnitudes, beyond the ranges, or a
+  // vector part so small that its squared length leaves the normal numbers (the scalar path
+  // rescales it and keeps its axis; here the axis would be lost).
+  const auto tiny =
+      hn::And(hn::Lt(p.t, hn::Set(d, 1.5e-154)),
+              hn::Not(hn::And(hn::Eq(q.x, zero), hn::And(hn::Eq(q.y, zero), hn::Eq(q.z, zero)))));
   M ok = hn::And(hn::And(hn::IsFinite(p.a), hn::IsFinite(p.t)),
-                 hn::And(within(p.a, 1e150), within(p.t, 1e150)));
+                 hn::AndNot(tiny, hn::And(within(p.a, 1e150), within(p.t, 1e150))));
   Q r;
   switch (code) {
     case OpCode::kExp: {
