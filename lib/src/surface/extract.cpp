@@ -58,6 +58,134 @@ struct BrickRange {
   }
 };
 
+// Each face of a brick (tri[0 .. faces)): its local component (that of its first corner's slot,
+// written to face_comp), its area and signed volume relative to `origin` (added to its
+// component's), and whether it is degenerate.
+template <class PositionOf>
+void measure_faces(const std::array<std::uint32_t, 3>* tri, std::size_t faces,
+                   const std::uint32_t* corner, const std::vector<std::uint32_t>& comp_of,
+                   const PositionOf& position_of, const std::array<double, 3>& origin,
+                   std::uint32_t* face_comp, BrickMeasure& bm) {
+  for (std::size_t f = 0; f < faces; ++f) {
+    const auto& t = tri[f];
+    const std::uint32_t c = comp_of[corner[3 * f]];
+    face_comp[f] = c;
+    double p[3][3];
+    for (int k = 0; k < 3; ++k)
+      for (int a = 0; a < 3; ++a) p[k][a] = static_cast<double>(position_of(t[k])[a]) - origin[a];
+    const double e1[3] = {p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
+    const double e2[3] = {p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
+    const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                         e1[0] * e2[1] - e1[1] * e2[0]};
+    const double area = 0.5 * std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+    const double volume = (p[0][0] * (p[1][1] * p[2][2] - p[1][2] * p[2][1]) -
+                           p[0][1] * (p[1][0] * p[2][2] - p[1][2] * p[2][0]) +
+                           p[0][2] * (p[1][0] * p[2][1] - p[1][1] * p[2][0])) /
+                          6.0;
+    BrickMeasure::Comp& cm = bm.comps[c];
+    ++cm.faces;
+    cm.area += area;
+    cm.volume += volume;
+    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || area == 0) ++bm.degenerate;
+  }
+}
+
+// The pairing of a brick's half-edges when it has at most kPairingSlots local slots (corner:
+// each face corner's slot; slot(v): vertex v's). Counted in a matrix over the local slots (a
+// byte per ordered pair: the faces' half-edges in the low bits, 16 for a border half-edge),
+// whose touched entries are cleared after.
+template <class SlotOf>
+void pair_in_matrix(const std::uint32_t* corner, std::size_t faces, std::size_t slots,
+                    const std::vector<std::array<std::uint32_t, 2>>* border, const SlotOf& slot,
+                    BrickMeasure& bm) {
+  thread_local std::vector<std::uint8_t> count(kPairingSlots * kPairingSlots, 0);
+  auto at = [&](std::uint32_t a, std::uint32_t b) -> std::uint8_t& {
+    return count[static_cast<std::size_t>(a) * slots + b];
+  };
+  thread_local std::vector<std::array<std::uint32_t, 2>> border_slots;
+  border_slots.clear();
+  for (int d = 0; d < 6; ++d)
+    for (const auto& e : border[d]) border_slots.push_back({slot(e[0]), slot(e[1])});
+  for (std::size_t h = 0; h < 3 * faces; ++h) {
+    std::uint8_t& c = at(corner[h], corner[h - h % 3 + (h + 1) % 3]);
+    if ((c & 15) != 15) ++c;
+  }
+  for (const auto& e : border_slots) {
+    std::uint8_t& c = at(e[0], e[1]);
+    c = static_cast<std::uint8_t>(c & 16 ? c | 32 : c | 16);  // 32: listed twice
+  }
+  for (std::size_t h = 0; h < 3 * faces; ++h) {
+    const std::uint32_t a = corner[h], b = corner[h - h % 3 + (h + 1) % 3];
+    const std::uint8_t x = at(a, b), y = at(b, a);
+    if (a == b) {
+      ++bm.problems;  // an edge from a vertex to itself
+    } else if (x == 1 && y == 1) {
+      bm.edges += a < b;                // an edge inside the brick, counted once
+    } else if (!(x == 17 && y == 0)) {  // else a border half-edge
+      ++bm.problems;
+    }
+  }
+  for (const auto& e : border_slots)
+    if (at(e[0], e[1]) != 17) ++bm.problems;  // a border half-edge no face has
+  for (std::size_t h = 0; h < 3 * faces; ++h) at(corner[h], corner[h - h % 3 + (h + 1) % 3]) = 0;
+  for (const auto& e : border_slots) at(e[0], e[1]) = 0;
+}
+
+// The pairing of a brick's half-edges when it has very many vertices: in a hash table by their
+// edge.
+void pair_in_table(const std::array<std::uint32_t, 3>* tri, std::size_t faces,
+                   const std::vector<std::array<std::uint32_t, 2>>* border, BrickMeasure& bm) {
+  struct Slot {
+    std::uint64_t key;                               // (smaller index << 32 | larger) + 1; 0: empty
+    std::uint16_t up, down, border_up, border_down;  // half-edges smaller -> larger and back
+  };
+  thread_local std::vector<Slot> table;
+  thread_local std::vector<std::uint32_t> used;
+  std::size_t n_border = 0;
+  for (int d = 0; d < 6; ++d) n_border += border[d].size();
+  std::size_t size = 64;
+  while (size < 2 * (3 * faces + n_border)) size *= 2;
+  if (table.size() < size) table.resize(size);
+  used.clear();
+  const std::size_t mask = size - 1;
+  auto slot_of = [&](std::uint32_t a, std::uint32_t b) -> Slot& {
+    const std::uint64_t key = ((std::uint64_t{std::min(a, b)} << 32) | std::max(a, b)) + 1;
+    std::size_t h = (key * 0x9E3779B97F4A7C15ull) >> 20;
+    for (;; ++h) {
+      Slot& s = table[h & mask];
+      if (s.key == key) return s;
+      if (s.key == 0) {
+        s = {key, 0, 0, 0, 0};
+        used.push_back(static_cast<std::uint32_t>(h & mask));
+        return s;
+      }
+    }
+  };
+  for (std::size_t f = 0; f < faces; ++f)
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t a = tri[f][k], b = tri[f][(k + 1) % 3];
+      Slot& s = slot_of(a, b);
+      ++(a < b ? s.up : s.down);
+    }
+  for (int d = 0; d < 6; ++d)
+    for (const auto& e : border[d]) {
+      Slot& s = slot_of(e[0], e[1]);
+      ++(e[0] < e[1] ? s.border_up : s.border_down);
+    }
+  for (std::uint32_t u : used) {
+    Slot& s = table[u];
+    const int count = s.up + s.down;
+    if (count == 2 && s.up == 1 && s.border_up + s.border_down == 0) {
+      ++bm.edges;
+    } else if (count == 1 && s.border_up == s.up && s.border_down == s.down) {
+      // a border half-edge
+    } else {
+      bm.problems += static_cast<std::size_t>(count > 0 ? count : 1);
+    }
+    s.key = 0;  // the table is left empty for the next brick
+  }
+}
+
 // Measures a brick's faces (written in `mesh` at r.face): area and signed volume relative to
 // `origin`, components within the brick, and the pairing of the half-edges inside the brick
 // (those on the brick's faces, `border`, pair with the neighbours'). Writes each face's local
@@ -112,118 +240,14 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
   }
   for (std::size_t f = 0; f < foreign.size(); ++f)
     bm.links.push_back({foreign[f], comp_of[owned + f]});
-  for (std::size_t f = 0; f < r.faces; ++f) {
-    const auto& t = tri[f];
-    const std::uint32_t c = comp_of[corner[3 * f]];
-    face_comp[f] = c;
-    double p[3][3];
-    for (int k = 0; k < 3; ++k)
-      for (int a = 0; a < 3; ++a) p[k][a] = static_cast<double>(position_of(t[k])[a]) - origin[a];
-    const double e1[3] = {p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
-    const double e2[3] = {p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
-    const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
-                         e1[0] * e2[1] - e1[1] * e2[0]};
-    const double area = 0.5 * std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    const double volume = (p[0][0] * (p[1][1] * p[2][2] - p[1][2] * p[2][1]) -
-                           p[0][1] * (p[1][0] * p[2][2] - p[1][2] * p[2][0]) +
-                           p[0][2] * (p[1][0] * p[2][1] - p[1][1] * p[2][0])) /
-                          6.0;
-    BrickMeasure::Comp& cm = bm.comps[c];
-    ++cm.faces;
-    cm.area += area;
-    cm.volume += volume;
-    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || area == 0) ++bm.degenerate;
-  }
+  measure_faces(tri, r.faces, corner.data(), comp_of, position_of, origin, face_comp, bm);
   // The half-edges: each edge inside the brick has its two half-edges here, opposite; one
   // alone must be on a brick face (`border`, in the same direction), paired with the
-  // neighbour's later. Counted in a matrix over the local slots (a byte per ordered pair: the
-  // faces' half-edges in the low bits, 16 for a border half-edge), whose touched entries are
-  // cleared after.
-  if (slots <= kPairingSlots) {
-    thread_local std::vector<std::uint8_t> count(kPairingSlots * kPairingSlots, 0);
-    auto at = [&](std::uint32_t a, std::uint32_t b) -> std::uint8_t& {
-      return count[static_cast<std::size_t>(a) * slots + b];
-    };
-    thread_local std::vector<std::array<std::uint32_t, 2>> border_slots;
-    border_slots.clear();
-    for (int d = 0; d < 6; ++d)
-      for (const auto& e : border[d]) border_slots.push_back({slot(e[0]), slot(e[1])});
-    for (std::size_t h = 0; h < 3 * r.faces; ++h) {
-      std::uint8_t& c = at(corner[h], corner[h - h % 3 + (h + 1) % 3]);
-      if ((c & 15) != 15) ++c;
-    }
-    for (const auto& e : border_slots) {
-      std::uint8_t& c = at(e[0], e[1]);
-      c = static_cast<std::uint8_t>(c & 16 ? c | 32 : c | 16);  // 32: listed twice
-    }
-    for (std::size_t h = 0; h < 3 * r.faces; ++h) {
-      const std::uint32_t a = corner[h], b = corner[h - h % 3 + (h + 1) % 3];
-      const std::uint8_t x = at(a, b), y = at(b, a);
-      if (a == b) {
-        ++bm.problems;  // an edge from a vertex to itself
-      } else if (x == 1 && y == 1) {
-        bm.edges += a < b;                // an edge inside the brick, counted once
-      } else if (!(x == 17 && y == 0)) {  // else a border half-edge
-        ++bm.problems;
-      }
-    }
-    for (const auto& e : border_slots)
-      if (at(e[0], e[1]) != 17) ++bm.problems;  // a border half-edge no face has
-    for (std::size_t h = 0; h < 3 * r.faces; ++h)
-      at(corner[h], corner[h - h % 3 + (h + 1) % 3]) = 0;
-    for (const auto& e : border_slots) at(e[0], e[1]) = 0;
-    return bm;
-  }
-  // A brick with very many vertices: the half-edges in a hash table by their edge.
-  struct Slot {
-    std::uint64_t key;                               // (smaller index << 32 | larger) + 1; 0: empty
-    std::uint16_t up, down, border_up, border_down;  // half-edges smaller -> larger and back
-  };
-  thread_local std::vector<Slot> table;
-  thread_local std::vector<std::uint32_t> used;
-  std::size_t n_border = 0;
-  for (int d = 0; d < 6; ++d) n_border += border[d].size();
-  std::size_t size = 64;
-  while (size < 2 * (3 * r.faces + n_border)) size *= 2;
-  if (table.size() < size) table.resize(size);
-  used.clear();
-  const std::size_t mask = size - 1;
-  auto slot_of = [&](std::uint32_t a, std::uint32_t b) -> Slot& {
-    const std::uint64_t key = ((std::uint64_t{std::min(a, b)} << 32) | std::max(a, b)) + 1;
-    std::size_t h = (key * 0x9E3779B97F4A7C15ull) >> 20;
-    for (;; ++h) {
-      Slot& s = table[h & mask];
-      if (s.key == key) return s;
-      if (s.key == 0) {
-        s = {key, 0, 0, 0, 0};
-        used.push_back(static_cast<std::uint32_t>(h & mask));
-        return s;
-      }
-    }
-  };
-  for (std::size_t f = 0; f < r.faces; ++f)
-    for (int k = 0; k < 3; ++k) {
-      const std::uint32_t a = tri[f][k], b = tri[f][(k + 1) % 3];
-      Slot& s = slot_of(a, b);
-      ++(a < b ? s.up : s.down);
-    }
-  for (int d = 0; d < 6; ++d)
-    for (const auto& e : border[d]) {
-      Slot& s = slot_of(e[0], e[1]);
-      ++(e[0] < e[1] ? s.border_up : s.border_down);
-    }
-  for (std::uint32_t u : used) {
-    Slot& s = table[u];
-    const int count = s.up + s.down;
-    if (count == 2 && s.up == 1 && s.border_up + s.border_down == 0) {
-      ++bm.edges;
-    } else if (count == 1 && s.border_up == s.up && s.border_down == s.down) {
-      // a border half-edge
-    } else {
-      bm.problems += static_cast<std::size_t>(count > 0 ? count : 1);
-    }
-    s.key = 0;  // the table is left empty for the next brick
-  }
+  // neighbour's later.
+  if (slots <= kPairingSlots)
+    pair_in_matrix(corner.data(), r.faces, slots, border, slot, bm);
+  else
+    pair_in_table(tri, r.faces, border, bm);
   return bm;
 }
 
@@ -320,27 +344,77 @@ void find_neighbour_ranks(const detail::Distribution& d, detail::MeshPart& part)
 // never both whole in memory. With `part` (a distributed run), this rank meshes its own bricks
 // and the up rank's first plane of bricks is known by its vertices only; the numbering, the
 // pairing across ranks, the components and the normals are agreed with the other ranks, so the
-// ranks' parts in rank order are the mesh of one process.
-TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptions& opts,
-                       ExtractStats* stats, detail::MeshPart* part) {
-  auto report = [&](double f) {
+// ranks' parts in rank order are the mesh of one process. run() takes the steps in order; what
+// one step leaves for the next is kept in the members.
+struct BrickMesher {
+  SampledGrid::Impl& impl;
+  const bool release;
+  const ExtractOptions& opts;
+  ExtractStats* const stats;
+  detail::MeshPart* const part;
+  Comm* const comm;
+  std::size_t nb = 0;  // own bricks
+  std::size_t nv = 0;  // own bricks, then the up rank's first plane
+  detail::BrickMeshOptions bopts;
+  std::mutex report_mutex;
+  // Per brick: its edge vertices (pass one), its plan (pass two), its vertices and faces in the
+  // mesh (the numbering), its border half-edges (pass three) and its measures.
+  std::vector<detail::BrickVertices> verts;
+  std::unordered_map<std::uint64_t, std::size_t> index;  // by key
+  std::vector<detail::BrickPlan> plans;
+  std::vector<BrickRange> range;
+  std::vector<detail::BrickFaces> faces;
+  std::vector<BrickMeasure> bm;
+  std::vector<std::size_t> border_edges, border_problems;
+  // Across ranks.
+  std::vector<std::size_t> first_plane;     // own bricks in the first plane
+  std::unordered_set<std::uint64_t> below;  // the down rank's last plane
+  // The numbering: this rank's counts, and where its vertices and faces start.
+  std::size_t edges_local = 0, centres_local = 0, faces_local = 0, unmended = 0;
+  std::uint64_t evaluations = 0;
+  std::uint64_t edge_first = 0, edges_total = 0, centre_first = 0, centres_total = 0,
+                face_first = 0, faces_total = 0;
+  TriMesh mesh;
+  // The components: each brick's first local component, each face's component, and the up
+  // rank's first plane's (its first component, its vertices' components).
+  std::vector<std::size_t> comp_first;
+  std::uint64_t comp_before = 0;
+  std::vector<std::uint32_t> face_component;
+  std::vector<std::uint64_t> ghost_comp_first;
+  std::vector<std::vector<std::uint32_t>> ghost_owned_comp;
+  std::vector<std::array<std::uint32_t, 2>> links;
+  std::vector<BrickMeasure::Comp> comps;
+  detail::UnionFind uf;
+  Components resolved;
+  std::vector<std::uint32_t> final_index;  // per local component of this rank
+  // The measures.
+  MeshMeasure m;
+  std::size_t problems = 0, degenerate = 0;
+  bool closed = false;
+
+  BrickMesher(SampledGrid::Impl& impl, bool release, const ExtractOptions& opts,
+              ExtractStats* stats, detail::MeshPart* part)
+      : impl(impl),
+        release(release),
+        opts(opts),
+        stats(stats),
+        part(part),
+        comm(part ? part->comm : nullptr) {
+    bopts.tolerance = opts.tolerance;
+    bopts.max_refine_steps = opts.max_refine_steps;
+  }
+
+  TriMesh run();
+
+  // Throws Cancelled when asked to stop; reports progress f.
+  void report(double f) const {
     if (opts.cancel && opts.cancel->requested()) throw Cancelled();
     if (opts.progress && !opts.progress(f)) throw Cancelled();
-  };
-  if (release) {  // bricks without surface cells are not needed any more
-    impl.bricks.erase(
-        std::remove_if(impl.bricks.begin(), impl.bricks.end(),
-                       [](const std::unique_ptr<detail::Brick>& b) { return !b->surface.any(); }),
-        impl.bricks.end());
-    malloc_trim(0);
   }
-  Comm* comm = part ? part->comm : nullptr;
-  const std::size_t nb = impl.bricks.size();
-  detail::BrickMeshOptions bopts;
-  bopts.tolerance = opts.tolerance;
-  bopts.max_refine_steps = opts.max_refine_steps;
-  std::mutex report_mutex;
-  auto each_brick = [&](double from, double to, auto&& f) {
+
+  // Runs f(i) for each own brick in parallel, reporting progress from `from` to `to`.
+  template <class F>
+  void each_brick(double from, double to, F&& f) {
     std::atomic<std::size_t> done{0};
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nb, 4),
                       [&](const tbb::blocked_range<std::size_t>& r) {
@@ -352,10 +426,20 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
                           report(from + (to - from) * k / std::max<std::size_t>(nb, 1));
                         }
                       });
-  };
+  }
+
+  // Bricks without surface cells are not needed any more (with `release`).
+  void drop_empty_bricks() {
+    impl.bricks.erase(
+        std::remove_if(impl.bricks.begin(), impl.bricks.end(),
+                       [](const std::unique_ptr<detail::Brick>& b) { return !b->surface.any(); }),
+        impl.bricks.end());
+    malloc_trim(0);
+  }
+
   // Pass one: the edge vertices, refined in groups of bricks that share their evaluations.
-  std::vector<detail::BrickVertices> verts(nb);
-  {
+  void edge_vertices() {
+    verts.resize(nb);
     constexpr std::size_t kGroup = 16;
     std::atomic<std::size_t> done{0};
     tbb::parallel_for(
@@ -376,16 +460,19 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
         },
         tbb::simple_partitioner());
   }
-  // Across ranks: the vertices of this rank's first plane go to the down rank (its faces use
-  // them) and the keys of its last plane to the up rank (whose -x faces close against them).
-  std::vector<std::size_t> first_plane;      // own bricks in the first plane
-  std::unordered_set<std::uint64_t> below;   // the down rank's last plane
-  auto send_first_plane = [&](auto&& put) {  // to the down rank, one item per brick
+
+  // What this rank's first plane of bricks sends the down rank: put(packer, brick) for each.
+  template <class Put>
+  std::string send_first_plane(Put&& put) const {
     Packer to_down;
     for (std::size_t i : first_plane) put(to_down, i);
     return std::move(to_down.data);
-  };
-  if (part) {
+  }
+
+  // Across ranks: the vertices of this rank's first plane go to the down rank (its faces use
+  // them) and the keys of its last plane to the up rank (whose -x faces close against them).
+  // The up rank's first plane joins `verts`, after the own bricks.
+  void exchange_first_plane() {
     const detail::Distribution& d = *impl.distribution;
     const int x0 = d.first[comm->rank()], x1 = d.first[comm->rank() + 1];
     std::vector<std::uint64_t> last_plane;
@@ -413,18 +500,24 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
       verts.push_back(std::move(g));
     }
   }
-  const std::size_t nv = verts.size();  // own bricks, then the up rank's first plane
-  std::unordered_map<std::uint64_t, std::size_t> index;
-  index.reserve(nv * 2);
-  for (std::size_t i = 0; i < nv; ++i) index.emplace(verts[i].key, i);
-  auto neighbour = [&](std::size_t i, int dx, int dy, int dz) -> std::ptrdiff_t {
+
+  // The bricks by key, so that a brick finds its neighbours.
+  void index_bricks() {
+    nv = verts.size();
+    index.reserve(nv * 2);
+    for (std::size_t i = 0; i < nv; ++i) index.emplace(verts[i].key, i);
+    range.resize(nv);
+  }
+
+  // The brick next to brick i by (dx, dy, dz), or -1.
+  std::ptrdiff_t neighbour(std::size_t i, int dx, int dy, int dz) const {
     const detail::BrickCoord at = detail::brick_of_key(verts[i].key);
     const auto it = index.find(detail::brick_key(at.x + dx, at.y + dy, at.z + dz));
     return it == index.end() ? -1 : static_cast<std::ptrdiff_t>(it->second);
-  };
-  std::vector<BrickRange> range(nv);
+  }
+
   // The vertices around brick i: its own and its +x, +y, +z neighbours'.
-  auto around = [&](std::size_t i, bool positions) {
+  detail::BrickNeighbours around(std::size_t i, bool positions) const {
     detail::BrickNeighbours a;
     for (int dir = 0; dir < 8; ++dir) {
       const std::ptrdiff_t n = dir == 0 ? static_cast<std::ptrdiff_t>(i)
@@ -435,67 +528,79 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
       a.base[dir] = range[n].edge;
     }
     return a;
-  };
-  // Pass two: how each cell is triangulated, and the centre vertices.
-  std::vector<detail::BrickPlan> plans(nb);
-  each_brick(0.35, 0.5, [&](std::size_t i) {
-    plans[i] =
-        detail::plan_brick(*impl.bricks[i], *impl.solid, impl.geometry, bopts, around(i, true));
-    if (release) impl.bricks[i].reset();  // the plan holds what is left to do with its values
-  });
-  if (release) {
-    impl.bricks.clear();
-    impl.bricks.shrink_to_fit();
-    malloc_trim(0);
   }
+
+  // Pass two: how each cell is triangulated, and the centre vertices.
+  void plan_cells() {
+    plans.resize(nb);
+    each_brick(0.35, 0.5, [&](std::size_t i) {
+      plans[i] =
+          detail::plan_brick(*impl.bricks[i], *impl.solid, impl.geometry, bopts, around(i, true));
+      if (release) impl.bricks[i].reset();  // the plan holds what is left to do with its values
+    });
+    if (release) {
+      impl.bricks.clear();
+      impl.bricks.shrink_to_fit();
+      malloc_trim(0);
+    }
+  }
+
   // The numbering: this rank's edge vertices after the lower ranks', its centre vertices after
   // every edge vertex and the lower ranks' centre vertices.
-  std::size_t edges_local = 0, centres_local = 0, faces_local = 0, unmended = 0;
-  std::uint64_t evaluations = 0;
-  for (std::size_t i = 0; i < nb; ++i) {
-    range[i].edges = verts[i].positions.size();
-    range[i].face = faces_local;
-    range[i].faces = plans[i].triangles;
-    range[i].centres = plans[i].centres.size();
-    edges_local += range[i].edges;
-    faces_local += range[i].faces;
-    centres_local += range[i].centres;
-    evaluations += verts[i].evaluations + plans[i].evaluations;
-    unmended += plans[i].unmended;
+  void number_vertices() {
+    for (std::size_t i = 0; i < nb; ++i) {
+      range[i].edges = verts[i].positions.size();
+      range[i].face = faces_local;
+      range[i].faces = plans[i].triangles;
+      range[i].centres = plans[i].centres.size();
+      edges_local += range[i].edges;
+      faces_local += range[i].faces;
+      centres_local += range[i].centres;
+      evaluations += verts[i].evaluations + plans[i].evaluations;
+      unmended += plans[i].unmended;
+    }
+    std::uint64_t centre_before = 0;
+    edges_total = edges_local;
+    centres_total = centres_local;
+    faces_total = faces_local;
+    if (comm) {
+      edge_first = comm->exclusive_sum(edges_local);
+      edges_total = comm->sum(edges_local);
+      centre_before = comm->exclusive_sum(centres_local);
+      centres_total = comm->sum(centres_local);
+      face_first = comm->exclusive_sum(faces_local);
+      faces_total = comm->sum(faces_local);
+    }
+    centre_first = edges_total + centre_before;
+    for (std::size_t i = 0, e = edge_first, c = centre_first; i < nb; ++i) {
+      range[i].edge = e;
+      range[i].centre = c;
+      e += range[i].edges;
+      c += range[i].centres;
+    }
+    if (edges_total + centres_total > 0xffffffffu)
+      throw TooLarge("the mesh has " + std::to_string(edges_total + centres_total) +
+                     " vertices; 32-bit indices hold at most 4294967295");
   }
-  std::uint64_t edge_first = 0, edges_total = edges_local, centre_before = 0,
-                centres_total = centres_local, face_first = 0, faces_total = faces_local;
-  if (comm) {
-    edge_first = comm->exclusive_sum(edges_local);
-    edges_total = comm->sum(edges_local);
-    centre_before = comm->exclusive_sum(centres_local);
-    centres_total = comm->sum(centres_local);
-    face_first = comm->exclusive_sum(faces_local);
-    faces_total = comm->sum(faces_local);
+
+  // The mesh's vertices: each brick's edge and centre vertices moved to their numbers.
+  void place_positions() {
+    detail::resize_first_touched(mesh.positions, edges_local + centres_local);
+    detail::resize_first_touched(mesh.triangles, faces_local);
+    tbb::parallel_for(std::size_t{0}, nb, [&](std::size_t i) {
+      std::copy(verts[i].positions.begin(), verts[i].positions.end(),
+                mesh.positions.begin() + (range[i].edge - edge_first));
+      std::copy(plans[i].centres.begin(), plans[i].centres.end(),
+                mesh.positions.begin() + edges_local + (range[i].centre - centre_first));
+      std::vector<std::array<float, 3>>().swap(verts[i].positions);
+      std::vector<std::array<float, 3>>().swap(plans[i].centres);
+    });
+    malloc_trim(0);
   }
-  const std::uint64_t centre_first = edges_total + centre_before;
-  for (std::size_t i = 0, e = edge_first, c = centre_first; i < nb; ++i) {
-    range[i].edge = e;
-    range[i].centre = c;
-    e += range[i].edges;
-    c += range[i].centres;
-  }
-  if (edges_total + centres_total > 0xffffffffu)
-    throw TooLarge("the mesh has " + std::to_string(edges_total + centres_total) +
-                   " vertices; 32-bit indices hold at most 4294967295");
-  TriMesh mesh;
-  detail::resize_first_touched(mesh.positions, edges_local + centres_local);
-  detail::resize_first_touched(mesh.triangles, faces_local);
-  tbb::parallel_for(std::size_t{0}, nb, [&](std::size_t i) {
-    std::copy(verts[i].positions.begin(), verts[i].positions.end(),
-              mesh.positions.begin() + (range[i].edge - edge_first));
-    std::copy(plans[i].centres.begin(), plans[i].centres.end(),
-              mesh.positions.begin() + edges_local + (range[i].centre - centre_first));
-    std::vector<std::array<float, 3>>().swap(verts[i].positions);
-    std::vector<std::array<float, 3>>().swap(plans[i].centres);
-  });
-  malloc_trim(0);
-  if (part) {
+
+  // The part's numbers, the runs of vertices the down rank uses, and the up rank's first plane:
+  // where its vertices are numbered, and their positions (the ghosts).
+  void number_part() {
     part->edge_first = edge_first;
     part->edges = edges_local;
     part->centre_first = centre_first;
@@ -524,37 +629,48 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
       std::vector<std::array<float, 3>>().swap(verts[g].positions);
     }
   }
-  auto position_of = [&](std::uint64_t v) -> const std::array<float, 3>& {
+
+  // The position of whole-mesh vertex v: owned, or (in a distributed run) a ghost.
+  const std::array<float, 3>& position_of(std::uint64_t v) const {
     return part ? part->position(mesh, v) : mesh.positions[v];
-  };
+  }
+
   // Pass three: the triangles, with the measures of each brick.
-  const std::array<double, 3> origin = impl.geometry.origin;
-  std::vector<detail::BrickFaces> faces(nv);
-  std::vector<BrickMeasure> bm(nb);
-  std::vector<std::uint32_t> face_component;
-  detail::resize_first_touched(face_component, faces_local);
-  each_brick(0.5, 0.9, [&](std::size_t i) {
-    detail::MeshTarget target;
-    target.triangles = mesh.triangles.data();
-    target.centre_base = range[i].centre;
-    target.face_base = range[i].face;
-    target.around = around(i, false);
-    faces[i] = detail::brick_triangles(plans[i], target);
-    std::vector<std::uint32_t>().swap(plans[i].cells);
-    bm[i] = measure_brick(mesh, position_of, range[i], faces[i].border, origin,
-                          face_component.data() + range[i].face);
-  });
-  plans.clear();
-  plans.shrink_to_fit();
-  malloc_trim(0);  // the plans' cells, freed brick by brick
+  void write_triangles() {
+    const std::array<double, 3> origin = impl.geometry.origin;
+    auto position = [this](std::uint64_t v) -> const std::array<float, 3>& {
+      return position_of(v);
+    };
+    faces.resize(nv);
+    bm.resize(nb);
+    detail::resize_first_touched(face_component, faces_local);
+    each_brick(0.5, 0.9, [&](std::size_t i) {
+      detail::MeshTarget target;
+      target.triangles = mesh.triangles.data();
+      target.centre_base = range[i].centre;
+      target.face_base = range[i].face;
+      target.around = around(i, false);
+      faces[i] = detail::brick_triangles(plans[i], target);
+      std::vector<std::uint32_t>().swap(plans[i].cells);
+      bm[i] = measure_brick(mesh, position, range[i], faces[i].border, origin,
+                            face_component.data() + range[i].face);
+    });
+    plans.clear();
+    plans.shrink_to_fit();
+    malloc_trim(0);  // the plans' cells, freed brick by brick
+  }
+
   // The components of this rank's bricks, numbered after the lower ranks'.
-  std::vector<std::size_t> comp_first(nv + 1, 0);
-  for (std::size_t i = 0; i < nb; ++i) comp_first[i + 1] = comp_first[i] + bm[i].comps.size();
-  const std::uint64_t comp_before = comm ? comm->exclusive_sum(comp_first[nb]) : 0;
+  void number_components() {
+    comp_first.assign(nv + 1, 0);
+    for (std::size_t i = 0; i < nb; ++i) comp_first[i + 1] = comp_first[i] + bm[i].comps.size();
+    comp_before = comm ? comm->exclusive_sum(comp_first[nb]) : 0;
+    ghost_comp_first.assign(nv, 0);
+    ghost_owned_comp.resize(nv);
+  }
+
   // The up rank's first plane: its -x border and the components of its vertices.
-  std::vector<std::uint64_t> ghost_comp_first(nv, 0);
-  std::vector<std::vector<std::uint32_t>> ghost_owned_comp(nv);
-  if (part) {
+  void receive_ghost_borders() {
     const std::string from_up = part->swap(send_first_plane([&](Packer& p, std::size_t i) {
                                              p.put_vector(faces[i].border[0]);
                                              p.put<std::uint64_t>(comp_before + comp_first[i]);
@@ -569,106 +685,122 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
       ghost_owned_comp[g] = u.get_vector<std::uint32_t>();
     }
   }
+
   // The half-edges on brick faces: each brick's +x, +y, +z lists against the neighbour's -x,
   // -y, -z lists, reversed.
-  std::vector<std::size_t> border_edges(nb, 0), border_problems(nb, 0);
-  tbb::parallel_for(std::size_t{0}, nb, [&](std::size_t i) {
-    for (int axis = 0; axis < 3; ++axis) {
-      auto key = [](const std::array<std::uint32_t, 2>& e) {
-        return std::make_pair(std::min(e[0], e[1]), std::max(e[0], e[1]));
-      };
-      std::vector<std::array<std::uint32_t, 2>> up = faces[i].border[2 * axis + 1];
-      const std::ptrdiff_t n = neighbour(i, axis == 0, axis == 1, axis == 2);
-      std::vector<std::array<std::uint32_t, 2>> down;
-      if (n >= 0) down = faces[n].border[2 * axis];
-      auto less = [&](const auto& a, const auto& b) { return key(a) < key(b); };
-      std::sort(up.begin(), up.end(), less);
-      std::sort(down.begin(), down.end(), less);
-      std::size_t j = 0;
-      for (const auto& e : up) {
-        while (j < down.size() && less(down[j], e)) {
-          ++border_problems[i];
-          ++j;
+  void pair_borders() {
+    border_edges.assign(nb, 0);
+    border_problems.assign(nb, 0);
+    tbb::parallel_for(std::size_t{0}, nb, [&](std::size_t i) {
+      for (int axis = 0; axis < 3; ++axis) {
+        auto key = [](const std::array<std::uint32_t, 2>& e) {
+          return std::make_pair(std::min(e[0], e[1]), std::max(e[0], e[1]));
+        };
+        std::vector<std::array<std::uint32_t, 2>> up = faces[i].border[2 * axis + 1];
+        const std::ptrdiff_t n = neighbour(i, axis == 0, axis == 1, axis == 2);
+        std::vector<std::array<std::uint32_t, 2>> down;
+        if (n >= 0) down = faces[n].border[2 * axis];
+        auto less = [&](const auto& a, const auto& b) { return key(a) < key(b); };
+        std::sort(up.begin(), up.end(), less);
+        std::sort(down.begin(), down.end(), less);
+        std::size_t j = 0;
+        for (const auto& e : up) {
+          while (j < down.size() && less(down[j], e)) {
+            ++border_problems[i];
+            ++j;
+          }
+          if (j < down.size() && key(down[j]) == key(e) && down[j][0] == e[1] &&
+              down[j][1] == e[0]) {
+            ++border_edges[i];
+            ++j;
+          } else {
+            ++border_problems[i];
+          }
         }
-        if (j < down.size() && key(down[j]) == key(e) && down[j][0] == e[1] && down[j][1] == e[0]) {
-          ++border_edges[i];
-          ++j;
-        } else {
-          ++border_problems[i];
+        border_problems[i] += down.size() - std::min(j, down.size());
+      }
+      // A -x, -y, -z face with no neighbour leaves its border open.
+      for (int axis = 0; axis < 3; ++axis) {
+        if (neighbour(i, -(axis == 0), -(axis == 1), -(axis == 2)) >= 0) continue;
+        if (axis == 0) {
+          const detail::BrickCoord at = detail::brick_of_key(verts[i].key);
+          if (below.count(detail::brick_key(at.x - 1, at.y, at.z))) continue;
         }
+        border_problems[i] += faces[i].border[2 * axis].size();
       }
-      border_problems[i] += down.size() - std::min(j, down.size());
-    }
-    // A -x, -y, -z face with no neighbour leaves its border open.
-    for (int axis = 0; axis < 3; ++axis) {
-      if (neighbour(i, -(axis == 0), -(axis == 1), -(axis == 2)) >= 0) continue;
-      if (axis == 0) {
-        const detail::BrickCoord at = detail::brick_of_key(verts[i].key);
-        if (below.count(detail::brick_key(at.x - 1, at.y, at.z))) continue;
-      }
-      border_problems[i] += faces[i].border[2 * axis].size();
-    }
-  });
-  faces.clear();
-  faces.shrink_to_fit();
-  malloc_trim(0);  // the many small border lists
+    });
+    faces.clear();
+    faces.shrink_to_fit();
+    malloc_trim(0);  // the many small border lists
+  }
+
   // The links between local components (whole-mesh numbers): through the vertices they share.
   // The owner of a shared vertex is the brick whose edge vertices hold it (centre vertices are
-  // never shared); the bricks are in the order of their edge vertices.
-  verts.clear();  // the keys and codes: nothing looks for a neighbour any more
-  verts.shrink_to_fit();
-  std::vector<std::uint64_t> edge_start(nv);
-  for (std::size_t i = 0; i < nv; ++i) edge_start[i] = range[i].edge;
-  std::vector<std::array<std::uint32_t, 2>> links;
-  std::vector<BrickMeasure::Comp> comps;
-  comps.reserve(comp_first[nb]);
-  // One process joins the components at once; the ranks send their links to rank 0.
-  detail::UnionFind uf(comm ? 0 : comp_first[nb]);
-  if (comm) {
-    std::size_t n = 0;
-    for (std::size_t i = 0; i < nb; ++i) n += bm[i].links.size();
-    links.reserve(n);
-  }
-  MeshMeasure m;
-  std::size_t problems = 0, degenerate = 0;
-  for (std::size_t i = 0; i < nb; ++i) {
-    for (const auto& [v, c] : bm[i].links) {
-      const std::size_t owner =
-          std::upper_bound(edge_start.begin(), edge_start.end(), v) - edge_start.begin() - 1;
-      const std::uint64_t other =
-          owner < nb ? comp_before + comp_first[owner] + bm[owner].owned_comp[v - range[owner].edge]
-                     : ghost_comp_first[owner] + ghost_owned_comp[owner][v - range[owner].edge];
-      const auto a = static_cast<std::uint32_t>(comp_before + comp_first[i] + c);
-      if (comm)
-        links.push_back({a, static_cast<std::uint32_t>(other)});
-      else
-        uf.unite(a, static_cast<std::uint32_t>(other));
+  // never shared); the bricks are in the order of their edge vertices. One process joins the
+  // components at once (in `uf`); the ranks keep their links for rank 0. Also the bricks'
+  // measures, summed over the ranks.
+  void link_components() {
+    verts.clear();  // the keys and codes: nothing looks for a neighbour any more
+    verts.shrink_to_fit();
+    std::vector<std::uint64_t> edge_start(nv);
+    for (std::size_t i = 0; i < nv; ++i) edge_start[i] = range[i].edge;
+    comps.reserve(comp_first[nb]);
+    uf.reset(comm ? 0 : comp_first[nb]);
+    if (comm) {
+      std::size_t n = 0;
+      for (std::size_t i = 0; i < nb; ++i) n += bm[i].links.size();
+      links.reserve(n);
     }
-    comps.insert(comps.end(), bm[i].comps.begin(), bm[i].comps.end());
-    m.edges += bm[i].edges + border_edges[i];
-    problems += bm[i].problems + border_problems[i];
-    degenerate += bm[i].degenerate;
-    // Its vertices' components were needed by this brick and the ones before (a brick's
-    // links go to its own vertices and to its +x, +y, +z neighbours', later in key order).
-    bm[i] = BrickMeasure();
+    for (std::size_t i = 0; i < nb; ++i) {
+      for (const auto& [v, c] : bm[i].links) {
+        const std::size_t owner =
+            std::upper_bound(edge_start.begin(), edge_start.end(), v) - edge_start.begin() - 1;
+        const std::uint64_t other =
+            owner < nb
+                ? comp_before + comp_first[owner] + bm[owner].owned_comp[v - range[owner].edge]
+                : ghost_comp_first[owner] + ghost_owned_comp[owner][v - range[owner].edge];
+        const auto a = static_cast<std::uint32_t>(comp_before + comp_first[i] + c);
+        if (comm)
+          links.push_back({a, static_cast<std::uint32_t>(other)});
+        else
+          uf.unite(a, static_cast<std::uint32_t>(other));
+      }
+      comps.insert(comps.end(), bm[i].comps.begin(), bm[i].comps.end());
+      m.edges += bm[i].edges + border_edges[i];
+      problems += bm[i].problems + border_problems[i];
+      degenerate += bm[i].degenerate;
+      // Its vertices' components were needed by this brick and the ones before (a brick's
+      // links go to its own vertices and to its +x, +y, +z neighbours', later in key order).
+      bm[i] = BrickMeasure();
+    }
+    bm.clear();
+    bm.shrink_to_fit();
+    malloc_trim(0);
+    if (comm) {
+      m.edges = comm->sum(m.edges);
+      problems = comm->sum(problems);
+      degenerate = comm->sum(degenerate);
+    }
+    closed = problems == 0;
   }
-  bm.clear();
-  bm.shrink_to_fit();
-  malloc_trim(0);
-  if (comm) {
-    m.edges = comm->sum(m.edges);
-    problems = comm->sum(problems);
-    degenerate = comm->sum(degenerate);
-  }
-  const bool closed = problems == 0;
+
   // The components, resolved where every rank's are known: rank 0, which sends each rank the
   // final index of its local components.
-  Components resolved;
-  std::vector<std::uint32_t> final_index;
-  if (!comm) {
-    resolved = resolve_components(comps, uf, closed);
-    final_index = std::move(resolved.final_index);
-  } else {
+  void resolve() {
+    if (!comm) {
+      resolved = resolve_components(comps, uf, closed);
+      final_index = std::move(resolved.final_index);
+    } else {
+      resolve_on_rank_0();
+    }
+    std::vector<BrickMeasure::Comp>().swap(comps);
+    std::vector<std::array<std::uint32_t, 2>>().swap(links);
+    malloc_trim(0);
+  }
+
+  // Every rank's local components and links go to rank 0, which joins and resolves them and
+  // sends each rank back the final indices of its own.
+  void resolve_on_rank_0() {
     Packer mine;
     mine.put_vector(comps);
     mine.put_vector(links);
@@ -700,35 +832,40 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
     }
     final_index = Unpacker(comm->exchange(back)[0]).get_vector<std::uint32_t>();
   }
-  std::vector<BrickMeasure::Comp>().swap(comps);
-  std::vector<std::array<std::uint32_t, 2>>().swap(links);
-  std::vector<std::uint64_t>().swap(edge_start);
-  malloc_trim(0);
-  report(0.95);
+
   // Each face's component: its brick's local component, resolved.
-  tbb::parallel_for(std::size_t{0}, nb, [&](std::size_t i) {
-    for (std::size_t f = range[i].face; f < range[i].face + range[i].faces; ++f)
-      face_component[f] = final_index[comp_first[i] + face_component[f]];
-  });
-  m.vertices = edges_total + centres_total;
-  m.faces = faces_total;
-  m.degenerate_faces = degenerate;
-  m.boundary_edges = problems;
-  m.closed = m.manifold = m.oriented = closed;
-  m.volume = resolved.volume;
-  m.area = resolved.area;
-  m.bbox_min = resolved.lo;
-  m.bbox_max = resolved.hi;
-  m.components = std::move(resolved.measures);
-  m.euler = static_cast<long long>(m.vertices) - static_cast<long long>(m.edges) +
-            static_cast<long long>(m.faces);
-  if (!part) {
-    compute_normals(mesh);
-  } else {
-    // The sums of this rank's faces at the up rank's vertices go to the up rank, which adds its
-    // own faces to them: the order of one process (the lower rank's faces come first).
+  void resolve_face_components() {
+    tbb::parallel_for(std::size_t{0}, nb, [&](std::size_t i) {
+      for (std::size_t f = range[i].face; f < range[i].face + range[i].faces; ++f)
+        face_component[f] = final_index[comp_first[i] + face_component[f]];
+    });
+  }
+
+  // The mesh's measures from the counts and the resolved components.
+  void complete_measure() {
+    m.vertices = edges_total + centres_total;
+    m.faces = faces_total;
+    m.degenerate_faces = degenerate;
+    m.boundary_edges = problems;
+    m.closed = m.manifold = m.oriented = closed;
+    m.volume = resolved.volume;
+    m.area = resolved.area;
+    m.bbox_min = resolved.lo;
+    m.bbox_max = resolved.hi;
+    m.components = std::move(resolved.measures);
+    m.euler = static_cast<long long>(m.vertices) - static_cast<long long>(m.edges) +
+              static_cast<long long>(m.faces);
+  }
+
+  // The normals of a distributed run. The sums of this rank's faces at the up rank's vertices
+  // go to the up rank, which adds its own faces to them: the order of one process (the lower
+  // rank's faces come first).
+  void normals_across_ranks() {
+    auto position = [this](std::uint64_t v) -> const std::array<float, 3>& {
+      return position_of(v);
+    };
     std::vector<std::array<float, 3>> ghost_sums(part->ghost_positions.size(), {0, 0, 0});
-    detail::add_area_normals(mesh.triangles, position_of, [&](std::uint64_t v) {
+    detail::add_area_normals(mesh.triangles, position, [&](std::uint64_t v) {
       return part->local(v) == UINT64_MAX ? &ghost_sums[part->ghost(v)] : nullptr;
     });
     Packer to_up;
@@ -742,15 +879,15 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
         for (std::uint64_t k = 0; k < run.count && at < sums.size(); ++k)
           mesh.normals[run.first + k] = sums[at++];
     }
-    detail::add_area_normals(mesh.triangles, position_of, [&](std::uint64_t v) {
+    detail::add_area_normals(mesh.triangles, position, [&](std::uint64_t v) {
       const std::uint64_t l = part->local(v);
       return l == UINT64_MAX ? nullptr : &mesh.normals[l];
     });
     for (auto& n : mesh.normals) detail::normalize_sum(n);
   }
-  if (opts.color != ColorMode::kNone)
-    evaluations += detail::colorize(mesh, *impl.solid, impl.geometry.voxel, opts.color);
-  if (stats) {
+
+  // What the extraction tells its caller besides the mesh.
+  void fill_stats() {
     stats->evaluations = evaluations;
     stats->unembedded_cells = comm ? comm->sum(unmended) : unmended;
     stats->measure_valid = closed && degenerate == 0;
@@ -758,8 +895,42 @@ TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptio
     stats->face_component = std::move(face_component);
     stats->component_bbox = std::move(resolved.boxes);
   }
+};
+
+TriMesh BrickMesher::run() {
+  if (release) drop_empty_bricks();
+  nb = impl.bricks.size();
+  edge_vertices();  // pass one
+  if (part) exchange_first_plane();
+  index_bricks();
+  plan_cells();  // pass two
+  number_vertices();
+  place_positions();
+  if (part) number_part();
+  write_triangles();  // pass three
+  number_components();
+  if (part) receive_ghost_borders();
+  pair_borders();
+  link_components();
+  resolve();
+  report(0.95);
+  resolve_face_components();
+  complete_measure();
+  if (!part)
+    compute_normals(mesh);
+  else
+    normals_across_ranks();
+  if (opts.color != ColorMode::kNone)
+    evaluations += detail::colorize(mesh, *impl.solid, impl.geometry.voxel, opts.color);
+  if (stats) fill_stats();
   report(1.0);
-  return mesh;
+  return std::move(mesh);
+}
+
+// The mesh of the grid's bricks (see BrickMesher).
+TriMesh extract_bricks(SampledGrid::Impl& impl, bool release, const ExtractOptions& opts,
+                       ExtractStats* stats, detail::MeshPart* part) {
+  return BrickMesher(impl, release, opts, stats, part).run();
 }
 
 }  // namespace
