@@ -508,24 +508,7 @@ struct BrickSampler::Impl {
   void visit(Brick* const* group, std::size_t n, Batch& b, Outbox& out) {
     thread_local std::vector<Visit> visits;
     if (visits.size() < n) visits.resize(n);
-    for (std::size_t i = 0; i < n; ++i) {
-      Visit& v = visits[i];
-      Brick& br = *group[i];
-      v.br = &br;
-      v.a = around(br);
-      br.unpack();
-      // What the neighbours asked for since the last visit.
-      v.seed4 = br.inbox4.exchange(0);
-      v.frontier_cells.clear();
-      for (int w = 0; w < kBrickCells / 64; ++w)
-        for (std::uint64_t bits = br.inbox_cells[w].exchange(0); bits; bits &= bits - 1)
-          v.frontier_cells.push_back(static_cast<std::uint16_t>(w * 64 + __builtin_ctzll(bits)));
-      v.real = all_real(br);
-      v.avail = neighbours_know(v.a);
-      // Level 4: the 27 points at stride 4.
-      v.level4 = br.refined8 && !br.started;
-      if (v.level4) need_mask(br, v.a, point_tables().level4, b, v.real, &v.avail);
-    }
+    for (std::size_t i = 0; i < n; ++i) begin_visit(visits[i], *group[i], b);
     run(b);
     for (std::size_t i = 0; i < n; ++i) {
       Visit& v = visits[i];
@@ -548,18 +531,7 @@ struct BrickSampler::Impl {
       Visit& v = visits[i];
       Brick& br = *v.br;
       // Its 2-cells flagged.
-      if (v.new4) {
-        for (int q = 0; q < 8; ++q) {
-          if (!(v.new4 >> q & 1)) continue;
-          const int o[3] = {(q & 1) * 4, ((q >> 1) & 1) * 4, (q >> 2) * 4};
-          for (int r = 0; r < 8; ++r) {
-            const int c[3] = {o[0] + (r & 1) * 2, o[1] + ((r >> 1) & 1) * 2, o[2] + (r >> 2) * 2};
-            if (flag_cube(br, c[0], c[1], c[2], 2, false, v.real))
-              br.refine2 |= std::uint64_t{1} << ((c[0] / 2) * 16 + (c[1] / 2) * 4 + c[2] / 2);
-          }
-        }
-        br.done4 |= v.new4;
-      }
+      if (v.new4) level2_flags(v);
       // Level 1: the points of each new 2-cell.
       v.new2 = br.refine2 & ~br.done2;
       if (v.new2) {
@@ -598,6 +570,40 @@ struct BrickSampler::Impl {
       close_finish(visits[i]);
       visits[i].br->pack();
     }
+  }
+
+  // The start of a brick's visit: what its neighbours asked for since the last visit, and its
+  // points of level 4 queued when it runs that level.
+  void begin_visit(Visit& v, Brick& br, Batch& b) const {
+    v.br = &br;
+    v.a = around(br);
+    br.unpack();
+    // What the neighbours asked for since the last visit.
+    v.seed4 = br.inbox4.exchange(0);
+    v.frontier_cells.clear();
+    for (int w = 0; w < kBrickCells / 64; ++w)
+      for (std::uint64_t bits = br.inbox_cells[w].exchange(0); bits; bits &= bits - 1)
+        v.frontier_cells.push_back(static_cast<std::uint16_t>(w * 64 + __builtin_ctzll(bits)));
+    v.real = all_real(br);
+    v.avail = neighbours_know(v.a);
+    // Level 4: the 27 points at stride 4.
+    v.level4 = br.refined8 && !br.started;
+    if (v.level4) need_mask(br, v.a, point_tables().level4, b, v.real, &v.avail);
+  }
+
+  // The 2-cells of the brick's new 4-cells whose samples call for refinement.
+  void level2_flags(Visit& v) const {
+    Brick& br = *v.br;
+    for (int q = 0; q < 8; ++q) {
+      if (!(v.new4 >> q & 1)) continue;
+      const int o[3] = {(q & 1) * 4, ((q >> 1) & 1) * 4, (q >> 2) * 4};
+      for (int r = 0; r < 8; ++r) {
+        const int c[3] = {o[0] + (r & 1) * 2, o[1] + ((r >> 1) & 1) * 2, o[2] + (r >> 2) * 2};
+        if (flag_cube(br, c[0], c[1], c[2], 2, false, v.real))
+          br.refine2 |= std::uint64_t{1} << ((c[0] / 2) * 16 + (c[1] / 2) * 4 + c[2] / 2);
+      }
+    }
+    br.done4 |= v.new4;
   }
 
   // The 4-cells of level 4 whose samples call for refinement, dilated by one 4-cell: in this
@@ -860,21 +866,60 @@ void redeal_for_meshing(BrickList& mine, Distribution& dist, int lowest_plane) {
 
 }  // namespace
 
-BrickList BrickSampler::run() {
-  Impl im(solid_, geo_, opts_);
-  Distribution* dist = opts_.distribution;
-  if (dist && !dist->comm) dist = nullptr;
-  const int rank = dist ? dist->comm->rank() : 0, ranks = dist ? dist->comm->size() : 1;
-  const auto& P = geo_.points;
+// One run of the sampler: the bricks by key (created and linked with their neighbours as they
+// are asked for), the coarse lattice of the sparse path, and the steps from the lattice to the
+// closure. BrickSampler::run() takes the dense path or the sparse one, then lists the bricks.
+struct BrickSampler::Sampling {
+  Impl im;
+  const GridGeometry& geo;
+  const SampleOptions& opts;
+  Distribution* const dist;  // the ranks of a distributed run, or null
+  const int rank, ranks;
   // Brick planes: x from -1 to the last that holds a grid point.
-  const int lowest_plane = -1, highest_plane = (P[0] - 1) / kBrick;
-  auto report = [&](double f) {
-    im.check_cancel();
-    if (opts_.progress && !opts_.progress(std::min(1.0, f))) throw Cancelled();
-  };
+  const int lowest_plane = -1, highest_plane;
+  std::vector<std::array<int, 3>>& interior;  // the sampler's interior blocks
   std::unordered_map<std::uint64_t, std::unique_ptr<Brick>> bricks;
+  std::mutex report_mutex;
+  // The coarse lattice (the sparse path): its points and the centres of its cells, by
+  // lattice_index(); points -1 .. hi + 1 per axis, centres -1 .. hi.
+  int hi[3] = {0, 0, 0};
+  int n1 = 0, n2 = 0;
+  std::vector<float> lattice, centre;
+  // The rounds of visits (the sparse path): the bricks waiting for a visit, by class.
+  std::vector<Brick*> pending[8];
+  std::size_t visits = 0, first_round = 0;
+
+  Sampling(const Solid& solid, const GridGeometry& geo, const SampleOptions& opts,
+           std::vector<std::array<int, 3>>& interior)
+      : im(solid, geo, opts),
+        geo(geo),
+        opts(opts),
+        dist(opts.distribution && opts.distribution->comm ? opts.distribution : nullptr),
+        rank(dist ? dist->comm->rank() : 0),
+        ranks(dist ? dist->comm->size() : 1),
+        highest_plane((geo.points[0] - 1) / kBrick),
+        interior(interior) {
+    // The dense path evaluates every point of every brick itself (the reference the sparse path
+    // is tested against); the sparse path shares points between neighbours.
+    if (!dense_path()) im.map = &bricks;
+    im.dist = dist;
+  }
+
+  // A grid of at most two coarse blocks a side is sampled densely: the coarse lattice would hold
+  // too few points to see the surface.
+  bool dense_path() const {
+    const auto& P = geo.points;
+    return opts.dense || std::max({P[0], P[1], P[2]}) <= 2 * kCoarse;
+  }
+
+  // Throws Cancelled when asked to stop; reports progress f.
+  void report(double f) const {
+    im.check_cancel();
+    if (opts.progress && !opts.progress(std::min(1.0, f))) throw Cancelled();
+  }
+
   // A brick by key, created when new and linked with its neighbours both ways.
-  auto get = [&](std::uint64_t key) -> Brick& {
+  Brick& get(std::uint64_t key) {
     auto& slot = bricks[key];
     if (!slot) {
       slot = std::make_unique<Brick>();
@@ -891,18 +936,19 @@ BrickList BrickSampler::run() {
       }
     }
     return *slot;
-  };
+  }
+
   // This rank's bricks, and the planes of the neighbouring ranks' next to them (their copies,
   // for the values and cells this rank's bricks read).
-  auto owned = [&](int bx) { return !dist || dist->owns(bx); };
-  auto kept = [&](int bx) {
+  bool owned(int bx) const { return !dist || dist->owns(bx); }
+  bool kept(int bx) const {
     return !dist || (bx >= dist->first[rank] - 1 && bx <= dist->first[rank + 1]);
-  };
+  }
+
   // After each class of a distributed run: the requests to other ranks' bricks go to their
   // owners (which create the bricks asked for and schedule them), and the bricks next to another
   // rank that this class changed are copied there.
-  auto sync = [&](const std::vector<Brick*>& changed, std::vector<Request>& remote,
-                  Outbox& arrived) {
+  void sync(const std::vector<Brick*>& changed, std::vector<Request>& remote, Outbox& arrived) {
     if (!dist) return;
     Comm& comm = *dist->comm;
     std::vector<Packer> to(ranks);
@@ -949,16 +995,13 @@ BrickList BrickSampler::run() {
               [](const Request& a, const Request& b) { return a.key < b.key; });
     for (const Request& r : requests) Impl::deposit(get(r.key), r, arrived);
     remote.clear();
-  };
-  std::vector<std::uint64_t> refined8;  // bricks that run the stride-4 level (sorted)
-  // The dense path evaluates every point of every brick itself (the reference the sparse path
-  // is tested against); the sparse path shares points between neighbours.
-  if (!opts_.dense && std::max({P[0], P[1], P[2]}) > 2 * kCoarse) im.map = &bricks;
-  im.dist = dist;
+  }
+
   // Runs f(indices, count, batch) for groups of the bricks of `keys`, in eight classes by
   // coordinate parity (see Impl::need), each class in parallel; a distributed run copies the
   // changed bricks to the neighbouring ranks after each class.
-  auto by_class = [&](const std::vector<std::uint64_t>& keys, auto&& f) {
+  template <class F>
+  void by_class(const std::vector<std::uint64_t>& keys, F&& f) {
     std::vector<std::size_t> cls[8];
     for (std::size_t n = 0; n < keys.size(); ++n) {
       const BrickCoord c = brick_of_key(keys[n]);
@@ -982,18 +1025,18 @@ BrickList BrickSampler::run() {
         sync(changed, none, ignored);
       }
     }
-  };
+  }
 
-  // A grid of at most two coarse blocks a side is sampled densely: the coarse lattice would hold
-  // too few points to see the surface.
-  const bool dense = opts_.dense || std::max({P[0], P[1], P[2]}) <= 2 * kCoarse;
-  if (dense) {
+  // --- the dense path -------------------------------------------------------------------------
+
+  // Every point of every brick; every cell examined.
+  void dense() {
+    const auto& P = geo.points;
     if (dist) {
       // Every plane costs the same.
       dist->first = deal_planes(std::vector<double>(highest_plane - lowest_plane + 1, 1.0),
                                 lowest_plane, ranks);
     }
-    // Every point of every brick; every cell examined.
     std::vector<std::uint64_t> keys;
     for (int bx = -1; bx * kBrick <= P[0] - 1; ++bx) {
       if (!owned(bx)) continue;
@@ -1004,80 +1047,114 @@ BrickList BrickSampler::run() {
     std::vector<Brick*> list;
     for (std::uint64_t k : keys) list.push_back(bricks[k].get());
     std::atomic<std::size_t> done{0};
-    std::mutex report_mutex;
     tbb::parallel_for(std::size_t{0}, list.size(), [&](std::size_t n) {
       im.check_cancel();
       thread_local Batch b;
-      Brick& br = *list[n];
-      br.unpack();
-      im.need(br, Impl::Around{}, b, [](auto&& at) {
-        for (int i = 0; i < kSide; ++i)
-          for (int j = 0; j < kSide; ++j)
-            for (int k = 0; k < kSide; ++k) at(i, j, k);
-      });
-      im.run(b);
-      br.started = true;
-      for (int c = 0; c < kBrickCells; ++c) {
-        const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
-        const int g[3] = {br.at.x * kBrick + ci[0], br.at.y * kBrick + ci[1],
-                          br.at.z * kBrick + ci[2]};
-        if (g[0] < -1 || g[1] < -1 || g[2] < -1 || g[0] >= P[0] || g[1] >= P[1] || g[2] >= P[2])
-          continue;
-        int inside = 0;
-        for (int d = 0; d < 8; ++d)
-          inside +=
-              br.get(point_index(ci[0] + (d & 1), ci[1] + ((d >> 1) & 1), ci[2] + (d >> 2))) <= 0;
-        br.visited.set(c);
-        if (inside != 0 && inside != 8) br.surface.set(c);
-      }
-      br.pack();
+      sample_dense(*list[n], b);
       const std::size_t k = ++done;
       if (k % 256 == 0) {
         std::lock_guard<std::mutex> lock(report_mutex);
         report(0.9 * k / list.size());
       }
     });
-  } else {
-    // Level 16: the coarse lattice and the centres of its cells (on every rank: it is small,
-    // and every rank deals the planes from it; its evaluations count on rank 0).
-    const int s = kCoarse;
-    int hi[3];
-    for (int a = 0; a < 3; ++a) hi[a] = (P[a] - 1) / s;
-    const int n0 = hi[0] + 3, n1 = hi[1] + 3, n2 = hi[2] + 3;
-    auto lattice_index = [&](int i, int j, int k) {
-      return (static_cast<std::size_t>(i + 1) * n1 + (j + 1)) * n2 + (k + 1);
-    };
-    std::vector<float> lattice(static_cast<std::size_t>(n0) * n1 * n2);
-    std::vector<float> centre(lattice.size());
-    {
-      Batch b;
-      for (int i = -1; i <= hi[0] + 1; ++i)
-        for (int j = -1; j <= hi[1] + 1; ++j)
-          for (int k = -1; k <= hi[2] + 1; ++k) {
-            im.queue(b, i * s, j * s, k * s, &lattice[lattice_index(i, j, k)]);
-            if (i <= hi[0] && j <= hi[1] && k <= hi[2])
-              im.queue(b, i * s + s / 2, j * s + s / 2, k * s + s / 2,
-                       &centre[lattice_index(i, j, k)]);
-          }
-      // In parallel chunks.
-      const std::size_t n = b.x.size();
-      b.out.resize(n);
-      constexpr std::size_t kChunk = 4096;
-      tbb::parallel_for(std::size_t{0}, (n + kChunk - 1) / kChunk, [&](std::size_t c) {
-        im.check_cancel();
-        const std::size_t from = c * kChunk, m = std::min(kChunk, n - from);
-        solid_.field(b.x.data() + from, b.y.data() + from, b.z.data() + from, m,
-                     b.out.data() + from);
-      });
-      for (std::size_t i = 0; i < n; ++i) *b.dest[i] = b.out[i];
-      if (rank == 0) im.evaluations += n;
+  }
+
+  // One brick of the dense path: all its points evaluated, all its cells in the grid examined.
+  void sample_dense(Brick& br, Batch& b) {
+    const auto& P = geo.points;
+    br.unpack();
+    im.need(br, Impl::Around{}, b, [](auto&& at) {
+      for (int i = 0; i < kSide; ++i)
+        for (int j = 0; j < kSide; ++j)
+          for (int k = 0; k < kSide; ++k) at(i, j, k);
+    });
+    im.run(b);
+    br.started = true;
+    for (int c = 0; c < kBrickCells; ++c) {
+      const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
+      const int g[3] = {br.at.x * kBrick + ci[0], br.at.y * kBrick + ci[1],
+                        br.at.z * kBrick + ci[2]};
+      if (g[0] < -1 || g[1] < -1 || g[2] < -1 || g[0] >= P[0] || g[1] >= P[1] || g[2] >= P[2])
+        continue;
+      int inside = 0;
+      for (int d = 0; d < 8; ++d)
+        inside +=
+            br.get(point_index(ci[0] + (d & 1), ci[1] + ((d >> 1) & 1), ci[2] + (d >> 2))) <= 0;
+      br.visited.set(c);
+      if (inside != 0 && inside != 8) br.surface.set(c);
     }
+    br.pack();
+  }
+
+  // --- the sparse path ------------------------------------------------------------------------
+
+  // The coarse lattice (level 16), the bricks it flags (level 8), then the levels 4, 2, 1 and
+  // the closure in rounds of visits.
+  void sparse() {
+    coarse_lattice();
     report(0.05);
+    std::vector<std::uint64_t> hits;
+    {
+      const std::vector<char> flag16 = flag_coarse_cells();
+      if (dist) deal_by_flags(flag16);
+      hits = level8_hits(level8_candidates(flag16));
+    }
+    if (dist) share_hits(hits);
+    const std::vector<std::uint64_t> refined8 = dilate_hits(hits);
+    report(0.1);
+    visit_rounds(refined8);
+    // The lattice is not needed any more.
+    std::vector<float>().swap(lattice);
+    std::vector<float>().swap(centre);
+  }
+
+  // Where lattice point (i, j, k) and the centre of the coarse cell it is the lower corner of
+  // are kept in `lattice` and `centre`.
+  std::size_t lattice_index(int i, int j, int k) const {
+    return (static_cast<std::size_t>(i + 1) * n1 + (j + 1)) * n2 + (k + 1);
+  }
+
+  // Level 16: the coarse lattice and the centres of its cells (on every rank: it is small,
+  // and every rank deals the planes from it; its evaluations count on rank 0).
+  void coarse_lattice() {
+    const auto& P = geo.points;
+    const int s = kCoarse;
+    for (int a = 0; a < 3; ++a) hi[a] = (P[a] - 1) / s;
+    const int n0 = hi[0] + 3;
+    n1 = hi[1] + 3;
+    n2 = hi[2] + 3;
+    lattice.resize(static_cast<std::size_t>(n0) * n1 * n2);
+    centre.resize(lattice.size());
+    Batch b;
+    for (int i = -1; i <= hi[0] + 1; ++i)
+      for (int j = -1; j <= hi[1] + 1; ++j)
+        for (int k = -1; k <= hi[2] + 1; ++k) {
+          im.queue(b, i * s, j * s, k * s, &lattice[lattice_index(i, j, k)]);
+          if (i <= hi[0] && j <= hi[1] && k <= hi[2])
+            im.queue(b, i * s + s / 2, j * s + s / 2, k * s + s / 2,
+                     &centre[lattice_index(i, j, k)]);
+        }
+    // In parallel chunks.
+    const std::size_t n = b.x.size();
+    b.out.resize(n);
+    constexpr std::size_t kChunk = 4096;
+    tbb::parallel_for(std::size_t{0}, (n + kChunk - 1) / kChunk, [&](std::size_t c) {
+      im.check_cancel();
+      const std::size_t from = c * kChunk, m = std::min(kChunk, n - from);
+      im.solid.field(b.x.data() + from, b.y.data() + from, b.z.data() + from, m,
+                     b.out.data() + from);
+    });
+    for (std::size_t i = 0; i < n; ++i) *b.dest[i] = b.out[i];
+    if (rank == 0) im.evaluations += n;
     im.lattice = lattice.data();
     im.centres = centre.data();
-    im.lattice_at = [&](int i, int j, int k) { return lattice_index(i, j, k); };
+    im.lattice_at = [this](int i, int j, int k) { return lattice_index(i, j, k); };
     for (int a = 0; a < 3; ++a) im.lattice_hi[a] = hi[a];
-    // Flag the coarse cells, dilate; interior blocks for the grid's tiles.
+  }
+
+  // Flag the coarse cells, dilate; interior blocks for the grid's tiles.
+  std::vector<char> flag_coarse_cells() {
+    const int s = kCoarse;
     std::vector<char> flag16(lattice.size(), 0);
     for (int i = -1; i <= hi[0]; ++i)
       for (int j = -1; j <= hi[1]; ++j)
@@ -1102,29 +1179,34 @@ BrickList BrickSampler::run() {
                   flag16[lattice_index(a, bb, c)] = 1;
                 }
           } else if (all_inside && i >= 0 && j >= 0 && k >= 0) {
-            interior_.push_back({i, j, k});
+            interior.push_back({i, j, k});
           }
         }
     // Interior blocks that the dilation flagged are not uniform after all.
-    interior_.erase(std::remove_if(interior_.begin(), interior_.end(),
-                                   [&](const std::array<int, 3>& c) {
-                                     return flag16[lattice_index(c[0], c[1], c[2])] != 0;
-                                   }),
-                    interior_.end());
-    if (dist) {
-      // The planes dealt by their flagged coarse cells (where the surface is, and so the work),
-      // half of a coarse cell to each of its two planes of bricks, plus a little for every plane.
-      std::vector<double> weight(highest_plane - lowest_plane + 1, 1.0);
-      for (int i = -1; i <= hi[0]; ++i)
-        for (int j = -1; j <= hi[1]; ++j)
-          for (int k = -1; k <= hi[2]; ++k) {
-            if (!flag16[lattice_index(i, j, k)]) continue;
-            for (int bx : {2 * i, 2 * i + 1})
-              if (bx >= lowest_plane && bx <= highest_plane) weight[bx - lowest_plane] += 32;
-          }
-      dist->first = deal_planes(weight, lowest_plane, ranks);
-    }
-    // Level 8: the bricks of flagged coarse cells, by their corners; dilated by one brick.
+    interior.erase(std::remove_if(interior.begin(), interior.end(),
+                                  [&](const std::array<int, 3>& c) {
+                                    return flag16[lattice_index(c[0], c[1], c[2])] != 0;
+                                  }),
+                   interior.end());
+    return flag16;
+  }
+
+  // The planes dealt by their flagged coarse cells (where the surface is, and so the work),
+  // half of a coarse cell to each of its two planes of bricks, plus a little for every plane.
+  void deal_by_flags(const std::vector<char>& flag16) {
+    std::vector<double> weight(highest_plane - lowest_plane + 1, 1.0);
+    for (int i = -1; i <= hi[0]; ++i)
+      for (int j = -1; j <= hi[1]; ++j)
+        for (int k = -1; k <= hi[2]; ++k) {
+          if (!flag16[lattice_index(i, j, k)]) continue;
+          for (int bx : {2 * i, 2 * i + 1})
+            if (bx >= lowest_plane && bx <= highest_plane) weight[bx - lowest_plane] += 32;
+        }
+    dist->first = deal_planes(weight, lowest_plane, ranks);
+  }
+
+  // Level 8: the bricks of flagged coarse cells (this rank's), created; sorted by key.
+  std::vector<std::uint64_t> level8_candidates(const std::vector<char>& flag16) {
     std::vector<std::uint64_t> candidates;
     for (int i = -1; i <= hi[0]; ++i)
       for (int j = -1; j <= hi[1]; ++j)
@@ -1139,6 +1221,11 @@ BrickList BrickSampler::run() {
     std::sort(candidates.begin(), candidates.end());
     candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
     for (std::uint64_t k : candidates) get(k);
+    return candidates;
+  }
+
+  // The candidates flagged by their corners (Impl::flag8), in key order.
+  std::vector<std::uint64_t> level8_hits(const std::vector<std::uint64_t>& candidates) {
     std::vector<char> hit(candidates.size(), 0);
     by_class(candidates, [&](const std::size_t* n, std::size_t count, Batch& b) {
       Brick* group[kGroup];
@@ -1151,17 +1238,24 @@ BrickList BrickSampler::run() {
     std::vector<std::uint64_t> hits;
     for (std::size_t n = 0; n < candidates.size(); ++n)
       if (hit[n]) hits.push_back(candidates[n]);
-    if (dist) {
-      // Every rank's hits: a hit next to this rank's slab refines bricks in it.
-      Packer p;
-      p.put_vector(hits);
-      hits.clear();
-      for (const std::string& m : dist->comm->allgather(p.data)) {
-        Unpacker u(m);
-        for (std::uint64_t k : u.get_vector<std::uint64_t>())
-          if (kept(brick_of_key(k).x)) hits.push_back(k);
-      }
+    return hits;
+  }
+
+  // Every rank's hits: a hit next to this rank's slab refines bricks in it.
+  void share_hits(std::vector<std::uint64_t>& hits) const {
+    Packer p;
+    p.put_vector(hits);
+    hits.clear();
+    for (const std::string& m : dist->comm->allgather(p.data)) {
+      Unpacker u(m);
+      for (std::uint64_t k : u.get_vector<std::uint64_t>())
+        if (kept(brick_of_key(k).x)) hits.push_back(k);
     }
+  }
+
+  // The hits dilated by one brick: the bricks that run the stride-4 level (sorted).
+  std::vector<std::uint64_t> dilate_hits(const std::vector<std::uint64_t>& hits) const {
+    std::vector<std::uint64_t> refined8;
     for (std::uint64_t key : hits) {
       const BrickCoord c = brick_of_key(key);
       for (int dx = -1; dx <= 1; ++dx)
@@ -1173,25 +1267,26 @@ BrickList BrickSampler::run() {
     }
     tbb::parallel_sort(refined8.begin(), refined8.end());
     refined8.erase(std::unique(refined8.begin(), refined8.end()), refined8.end());
-    report(0.1);
+    return refined8;
+  }
 
-    // Levels 4, 2, 1 and the closure. Bricks are visited class by class (coordinate parity);
-    // a visit leaves requests in the inboxes of its neighbours, which are visited when their
-    // class comes (in this round, or in the next for the classes already done), until no
-    // request is left. Which bricks a class visits depends only on the classes before it, so
-    // the result does not depend on the thread count, nor on the number of ranks.
-    auto class_of = [](const Brick& b) {
-      return (b.at.x & 1) | ((b.at.y & 1) << 1) | ((b.at.z & 1) << 2);
-    };
-    std::vector<Brick*> pending[8];
+  static int class_of(const Brick& b) {
+    return (b.at.x & 1) | ((b.at.y & 1) << 1) | ((b.at.z & 1) << 2);
+  }
+
+  // Levels 4, 2, 1 and the closure. Bricks are visited class by class (coordinate parity);
+  // a visit leaves requests in the inboxes of its neighbours, which are visited when their
+  // class comes (in this round, or in the next for the classes already done), until no
+  // request is left. Which bricks a class visits depends only on the classes before it, so
+  // the result does not depend on the thread count, nor on the number of ranks.
+  void visit_rounds(const std::vector<std::uint64_t>& refined8) {
     for (std::uint64_t k : refined8) {
       Brick& b = get(k);
       b.refined8 = true;
       b.scheduled = true;
       pending[class_of(b)].push_back(&b);
     }
-    std::size_t visits = 0, first_round = refined8.size();
-    std::mutex report_mutex;
+    first_round = refined8.size();
     for (bool any = true; any;) {
       any = false;
       for (int k = 0; k < 8; ++k) {
@@ -1199,60 +1294,79 @@ BrickList BrickSampler::run() {
         members.swap(pending[k]);
         if (members.empty() && !dist) continue;
         any = any || !members.empty();
-        // A fixed order, whatever order the requests came in.
-        std::sort(members.begin(), members.end(),
-                  [](const Brick* a, const Brick* b) { return a->key < b->key; });
-        for (Brick* b : members) b->scheduled = false;
-        tbb::enumerable_thread_specific<Outbox> outboxes;
-        tbb::parallel_for(
-            tbb::blocked_range<std::size_t>(0, members.size(), kGroup),
-            [&](const tbb::blocked_range<std::size_t>& r) {
-              im.check_cancel();
-              thread_local Batch b;
-              for (std::size_t i = r.begin(); i < r.end(); i += kGroup)
-                im.visit(members.data() + i, std::min(kGroup, r.end() - i), b, outboxes.local());
-            },
-            tbb::simple_partitioner());
-        visits += members.size();
-        {
-          std::lock_guard<std::mutex> lock(report_mutex);
-          report(0.1 + 0.75 * std::min(1.0, double(visits) / (1.25 * first_round + 1)));
-        }
-        // Bricks asked for that do not exist yet; then the schedules, by class.
-        std::vector<Request> missing, remote;
-        for (Outbox& o : outboxes) {
-          missing.insert(missing.end(), o.missing.begin(), o.missing.end());
-          remote.insert(remote.end(), o.remote.begin(), o.remote.end());
-        }
-        std::sort(missing.begin(), missing.end(),
-                  [](const Request& a, const Request& b) { return a.key < b.key; });
-        Outbox created;
-        for (const Request& r : missing) Impl::deposit(get(r.key), r, created);
-        sync(members, remote, created);
-        for (Brick* b : created.schedule) pending[class_of(*b)].push_back(b);
-        for (Outbox& o : outboxes)
-          for (Brick* b : o.schedule) pending[class_of(*b)].push_back(b);
+        visit_class(members);
       }
       if (dist) any = dist->comm->any(any);
     }
   }
-  evaluations_ = im.evaluations;
+
+  // One class's visits, in groups in parallel; then the bricks they asked for are created (and
+  // a distributed run's requests and changed bricks exchanged), and the bricks with new
+  // requests wait for their class.
+  void visit_class(std::vector<Brick*>& members) {
+    // A fixed order, whatever order the requests came in.
+    std::sort(members.begin(), members.end(),
+              [](const Brick* a, const Brick* b) { return a->key < b->key; });
+    for (Brick* b : members) b->scheduled = false;
+    tbb::enumerable_thread_specific<Outbox> outboxes;
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, members.size(), kGroup),
+        [&](const tbb::blocked_range<std::size_t>& r) {
+          im.check_cancel();
+          thread_local Batch b;
+          for (std::size_t i = r.begin(); i < r.end(); i += kGroup)
+            im.visit(members.data() + i, std::min(kGroup, r.end() - i), b, outboxes.local());
+        },
+        tbb::simple_partitioner());
+    visits += members.size();
+    {
+      std::lock_guard<std::mutex> lock(report_mutex);
+      report(0.1 + 0.75 * std::min(1.0, double(visits) / (1.25 * first_round + 1)));
+    }
+    // Bricks asked for that do not exist yet; then the schedules, by class.
+    std::vector<Request> missing, remote;
+    for (Outbox& o : outboxes) {
+      missing.insert(missing.end(), o.missing.begin(), o.missing.end());
+      remote.insert(remote.end(), o.remote.begin(), o.remote.end());
+    }
+    std::sort(missing.begin(), missing.end(),
+              [](const Request& a, const Request& b) { return a.key < b.key; });
+    Outbox created;
+    for (const Request& r : missing) Impl::deposit(get(r.key), r, created);
+    sync(members, remote, created);
+    for (Brick* b : created.schedule) pending[class_of(*b)].push_back(b);
+    for (Outbox& o : outboxes)
+      for (Brick* b : o.schedule) pending[class_of(*b)].push_back(b);
+  }
+
   // Bricks that hold nothing are dropped (and the other ranks' copies); the rest sorted by key.
-  BrickList out;
-  out.reserve(bricks.size());
-  for (auto& [key, br] : bricks)
-    if (br->known.any() && owned(br->at.x)) out.push_back(std::move(br));
-  bricks.clear();
-  malloc_trim(0);
-  if (dist && ranks > 1) redeal_for_meshing(out, *dist, lowest_plane);
-  tbb::parallel_sort(out.begin(), out.end(),
-                     [](const std::unique_ptr<Brick>& a, const std::unique_ptr<Brick>& b) {
-                       return a->key < b->key;
-                     });
-  // Links to dropped bricks go.
-  for (auto& br : out) std::fill(std::begin(br->around), std::end(br->around), nullptr);
-  report(0.9);
-  return out;
+  BrickList list_bricks() {
+    BrickList out;
+    out.reserve(bricks.size());
+    for (auto& [key, br] : bricks)
+      if (br->known.any() && owned(br->at.x)) out.push_back(std::move(br));
+    bricks.clear();
+    malloc_trim(0);
+    if (dist && ranks > 1) redeal_for_meshing(out, *dist, lowest_plane);
+    tbb::parallel_sort(out.begin(), out.end(),
+                       [](const std::unique_ptr<Brick>& a, const std::unique_ptr<Brick>& b) {
+                         return a->key < b->key;
+                       });
+    // Links to dropped bricks go.
+    for (auto& br : out) std::fill(std::begin(br->around), std::end(br->around), nullptr);
+    report(0.9);
+    return out;
+  }
+};
+
+BrickList BrickSampler::run() {
+  Sampling s(solid_, geo_, opts_, interior_);
+  if (s.dense_path())
+    s.dense();
+  else
+    s.sparse();
+  evaluations_ = s.im.evaluations;
+  return s.list_bricks();
 }
 
 }  // namespace qjulia::detail

@@ -163,10 +163,11 @@ struct Brick {
 /// The bricks of a sampled grid, sorted by key.
 using BrickList = std::vector<std::unique_ptr<Brick>>;
 
-/// Samples the solid into bricks: the coarse-to-fine refinement of DESIGN.md (a coarse lattice
-/// at stride 16 with cell centres, then strides 8, 4, 2, 1 where the samples change sign or the
-/// field varies more than its smallest magnitude, dilated at strides >= 4), and the closure
-/// that follows the surface across cell faces, executed brick by brick in parallel.
+/// Samples the solid into bricks: the coarse-to-fine refinement of docs/design.md, sections 3
+/// and 6 (a coarse lattice at stride 16 with cell centres, then strides 8, 4, 2, 1 where the
+/// samples change sign or the field varies more than its smallest magnitude, dilated at strides
+/// >= 4), and the closure that follows the surface across cell faces, executed brick by brick
+/// in parallel.
 /// Evaluations go through the batched classifier. The result does not depend on the number of
 /// threads: every decision depends only on values, and the closure is a fixed point.
 class BrickSampler {
@@ -182,7 +183,8 @@ class BrickSampler {
   const std::vector<std::array<int, 3>>& interior_blocks() const { return interior_; }
 
  private:
-  struct Impl;
+  struct Impl;      // the visits of bricks: their points, levels and closure
+  struct Sampling;  // one run: the bricks by key, the coarse lattice, the rounds of visits
   const Solid& solid_;
   GridGeometry geo_;
   SampleOptions opts_;
