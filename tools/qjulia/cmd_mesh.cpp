@@ -33,7 +33,7 @@ int cmd_mesh(const Tokens& tokens, const CancelToken& cancel) {
     cmd->written.add(*cmd->vdb);
   }
   finish_mesh_command(*cmd, result.stats, &result.mesh, cancel);
-  return 0;
+  exit_without_freeing(0);
 }
 
 }  // namespace qjulia::cli

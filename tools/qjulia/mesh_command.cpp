@@ -1,6 +1,7 @@
 #include "mesh_command.h"
 
 #include <cstdio>
+#include <cstdlib>
 
 #include "qjulia/base/error.h"
 #include "qjulia/base/memory.h"
@@ -57,6 +58,23 @@ run:
 )help";
 
 }  // namespace
+
+#if defined(__SANITIZE_ADDRESS__)
+#define QJULIA_SANITIZED 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define QJULIA_SANITIZED 1
+#endif
+#endif
+
+void exit_without_freeing(int code) {
+  std::fflush(nullptr);
+#ifdef QJULIA_SANITIZED
+  std::exit(code);
+#else
+  std::_Exit(code);
+#endif
+}
 
 const char* const kEmptySolidHint =
     "; nothing written. Hint: check the bailout, the iterations, the box and the clip planes "

@@ -45,4 +45,9 @@ std::unique_ptr<MeshCommand> parse_mesh_command(const std::vector<std::string>& 
 void finish_mesh_command(MeshCommand& cmd, RunStats& stats, const TriMesh* mesh,
                          const CancelToken& cancel);
 
+/// Ends the process with `code` once every output is committed and the summary printed,
+/// without freeing the run's memory (hundreds of megabytes of mesh take a noticeable time to
+/// give back, for nothing). Sanitizer builds return normally, so the leak check still runs.
+[[noreturn]] void exit_without_freeing(int code);
+
 }  // namespace qjulia::cli
