@@ -3,12 +3,14 @@
 #include <gtest/gtest.h>
 #include <openvdb/io/File.h>
 #include <openvdb/openvdb.h>
+#include <tbb/global_control.h>
 #include <unistd.h>
 
 #include <cstdio>
 #include <filesystem>
 
 #include "qjulia/field/classify.h"
+#include "qjulia/field/params.h"
 
 namespace qjulia {
 namespace {
@@ -58,6 +60,42 @@ TEST(Sample, VdbFileReadsBackAsOneFloatGridWithTheSampledValuesAndMetadata) {
     EXPECT_NEAR(w.x(), geo.origin[0] + c.x() * geo.voxel, 1e-9);
   }
   EXPECT_GT(checked, 1000u);
+}
+
+// The grid written with one thread and with two holds the same values: the same active voxels
+// with the same values and the same inactive tiles (the files differ only by the random id
+// OpenVDB writes into every file).
+TEST(Sample, TheVdbGridHasTheSameValuesForOneAndTwoThreads) {
+  openvdb::initialize();
+  const auto dir = std::filesystem::temp_directory_path();
+  const auto write = [&](int threads, const std::string& name) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    Params p = preset("newton-cubic");
+    p.resolution = 72;
+    const std::string path = (dir / (name + std::to_string(::getpid()) + ".vdb")).string();
+    sample(p).write_vdb(path, params_to_json(p));
+    openvdb::io::File file(path);
+    file.open();
+    const auto grids = file.getGrids();
+    file.close();
+    std::remove(path.c_str());
+    return openvdb::gridPtrCast<openvdb::FloatGrid>((*grids)[0]);
+  };
+  const auto one = write(1, "qjulia_sample_t1_"), two = write(2, "qjulia_sample_t2_");
+  ASSERT_TRUE(one && two);
+  ASSERT_GT(one->activeVoxelCount(), 1000u);
+  EXPECT_EQ(one->activeVoxelCount(), two->activeVoxelCount());
+  EXPECT_EQ(one->background(), two->background());
+  auto acc = two->getConstAccessor();
+  std::size_t compared = 0;
+  for (auto it = one->cbeginValueAll(); it; ++it) {
+    openvdb::CoordBBox box;
+    it.getBoundingBox(box);
+    ASSERT_EQ(acc.isValueOn(box.min()), it.isValueOn()) << box.min();
+    ASSERT_EQ(acc.getValue(box.min()), *it) << box.min();
+    ++compared;
+  }
+  EXPECT_GT(compared, one->activeVoxelCount() / 2);
 }
 
 }  // namespace
