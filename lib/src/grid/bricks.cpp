@@ -136,6 +136,64 @@ const PointTables& point_tables() {
   return t;
 }
 
+// The bricks of a sampling by key: open addressing with linear probing in one array (a brick
+// is looked up for each of the 26 neighbours of every brick created). Inserted into between
+// the classes only; looked up concurrently.
+class BrickMap {
+ public:
+  BrickMap() : slots_(1024) {}
+  // The brick of `key`, or null.
+  Brick* find(std::uint64_t key) const {
+    for (std::size_t h = hash(key);; ++h) {
+      const Slot& s = slots_[h & (slots_.size() - 1)];
+      if (!s.claimed) return nullptr;
+      if (s.key == key) return s.brick.get();
+    }
+  }
+  // The slot of `key` (holding no brick when new).
+  std::unique_ptr<Brick>& operator[](std::uint64_t key) {
+    if (2 * (count_ + 1) > slots_.size()) grow();
+    for (std::size_t h = hash(key);; ++h) {
+      Slot& s = slots_[h & (slots_.size() - 1)];
+      if (!s.claimed) {
+        s.key = key;
+        s.claimed = true;
+        ++count_;
+        return s.brick;
+      }
+      if (s.key == key) return s.brick;
+    }
+  }
+  std::size_t size() const { return count_; }
+  // Calls f(brick) for every brick, taking it out of the map; the map is empty after.
+  template <class F>
+  void drain(F&& f) {
+    for (Slot& s : slots_)
+      if (s.brick) f(std::move(s.brick));
+    std::vector<Slot>(1024).swap(slots_);
+    count_ = 0;
+  }
+
+ private:
+  struct Slot {
+    std::uint64_t key = 0;
+    bool claimed = false;  // taken by operator[] (its brick may come later)
+    std::unique_ptr<Brick> brick;
+  };
+  static std::size_t hash(std::uint64_t key) {
+    return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> 17);
+  }
+  void grow() {
+    std::vector<Slot> old(slots_.size() * 2);
+    old.swap(slots_);
+    count_ = 0;
+    for (Slot& s : old)
+      if (s.claimed) (*this)[s.key] = std::move(s.brick);
+  }
+  std::vector<Slot> slots_;
+  std::size_t count_ = 0;
+};
+
 }  // namespace
 
 void Brick::unpack() {
@@ -254,11 +312,7 @@ struct BrickSampler::Impl {
   struct Around {
     Brick* n[27] = {};
   };
-  const std::unordered_map<std::uint64_t, std::unique_ptr<Brick>>* map = nullptr;
-  Brick* find(std::uint64_t key) const {
-    const auto it = map->find(key);
-    return it == map->end() ? nullptr : it->second.get();
-  }
+  const BrickMap* map = nullptr;  // the bricks, when points are shared between them
   const float* lattice = nullptr;
   const float* centres = nullptr;
   std::function<std::size_t(int, int, int)> lattice_at;
@@ -878,7 +932,7 @@ struct BrickSampler::Sampling {
   // Brick planes: x from -1 to the last that holds a grid point.
   const int lowest_plane = -1, highest_plane;
   std::vector<std::array<int, 3>>& interior;  // the sampler's interior blocks
-  std::unordered_map<std::uint64_t, std::unique_ptr<Brick>> bricks;
+  BrickMap bricks;
   std::mutex report_mutex;
   // The coarse lattice (the sparse path): its points and the centres of its cells, by
   // lattice_index(); points -1 .. hi + 1 per axis, centres -1 .. hi.
@@ -929,10 +983,10 @@ struct BrickSampler::Sampling {
       for (int o = 0; o < 27; ++o) {
         if (o == 13) continue;
         const int dx = o / 9 - 1, dy = (o / 3) % 3 - 1, dz = o % 3 - 1;
-        const auto it = bricks.find(brick_key(b.at.x + dx, b.at.y + dy, b.at.z + dz));
-        if (it == bricks.end() || !it->second) continue;
-        b.around[o] = it->second.get();
-        it->second->around[26 - o] = &b;
+        Brick* n = bricks.find(brick_key(b.at.x + dx, b.at.y + dy, b.at.z + dz));
+        if (!n) continue;
+        b.around[o] = n;
+        n->around[26 - o] = &b;
       }
     }
     return *slot;
@@ -1019,7 +1073,7 @@ struct BrickSampler::Sampling {
           tbb::simple_partitioner());
       if (dist) {
         std::vector<Brick*> changed;
-        for (std::size_t n : members) changed.push_back(bricks.find(keys[n])->second.get());
+        for (std::size_t n : members) changed.push_back(bricks.find(keys[n]));
         std::vector<Request> none;
         Outbox ignored;
         sync(changed, none, ignored);
@@ -1045,7 +1099,7 @@ struct BrickSampler::Sampling {
     }
     for (std::uint64_t k : keys) get(k);
     std::vector<Brick*> list;
-    for (std::uint64_t k : keys) list.push_back(bricks[k].get());
+    for (std::uint64_t k : keys) list.push_back(bricks.find(k));
     std::atomic<std::size_t> done{0};
     tbb::parallel_for(std::size_t{0}, list.size(), [&](std::size_t n) {
       im.check_cancel();
@@ -1230,8 +1284,7 @@ struct BrickSampler::Sampling {
     by_class(candidates, [&](const std::size_t* n, std::size_t count, Batch& b) {
       Brick* group[kGroup];
       char h[kGroup];
-      for (std::size_t i = 0; i < count; ++i)
-        group[i] = bricks.find(candidates[n[i]])->second.get();
+      for (std::size_t i = 0; i < count; ++i) group[i] = bricks.find(candidates[n[i]]);
       im.flag8(group, count, b, h);
       for (std::size_t i = 0; i < count; ++i) hit[n[i]] = h[i];
     });
@@ -1343,9 +1396,9 @@ struct BrickSampler::Sampling {
   BrickList list_bricks() {
     BrickList out;
     out.reserve(bricks.size());
-    for (auto& [key, br] : bricks)
+    bricks.drain([&](std::unique_ptr<Brick> br) {
       if (br->known.any() && owned(br->at.x)) out.push_back(std::move(br));
-    bricks.clear();
+    });
     malloc_trim(0);
     if (dist && ranks > 1) redeal_for_meshing(out, *dist, lowest_plane);
     tbb::parallel_sort(out.begin(), out.end(),
