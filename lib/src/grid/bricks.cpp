@@ -10,7 +10,6 @@
 #include <functional>
 #include <limits>
 #include <mutex>
-#include <unordered_map>
 
 #include "base/distribution.h"
 #include "qjulia/base/error.h"
