@@ -47,9 +47,12 @@ cmake --build build-fuzz -j "$(nproc)" --target fuzzers
 export ASAN_OPTIONS=abort_on_error=1:detect_leaks=1:allocator_may_return_null=1
 export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
 export LSAN_OPTIONS=suppressions=$root/tests/fuzz/lsan.supp:print_suppressions=0
-# Suppressions match function names: reports must be symbolized.
-symbolizer=$(command -v llvm-symbolizer-16 || command -v llvm-symbolizer || true)
-[[ -n "$symbolizer" ]] && export ASAN_SYMBOLIZER_PATH=$symbolizer
+# Suppressions match function names: reports must be symbolized (llvm-16, scripts/setup.sh).
+symbolizer=$(command -v /usr/lib/llvm-16/bin/llvm-symbolizer llvm-symbolizer-16 llvm-symbolizer |
+  head -n 1 || true)
+[[ -n "$symbolizer" ]] ||
+  { echo "fuzz: llvm-symbolizer is missing (scripts/setup.sh installs llvm-16)" >&2; exit 1; }
+export ASAN_SYMBOLIZER_PATH=$symbolizer
 asan=$ASAN_OPTIONS
 deterministic=${FUZZ_DETERMINISTIC:-1}
 run=()

@@ -3,12 +3,13 @@
 # Usage: scripts/setup.sh [--validate]   (--validate adds the tools of ../shared/validate)
 set -euo pipefail
 
-# libclang-rt-16-dev holds clang's ASan, UBSan and libFuzzer runtimes (the fuzz build), which
-# clang-16 only recommends.
+# libclang-rt-16-dev holds clang's ASan, UBSan and libFuzzer runtimes (the fuzz build), and
+# llvm-16 the llvm-symbolizer that names the functions of a sanitizer's report (the fuzz
+# step's leak suppressions match those names), both of which clang-16 only recommends.
 packages=(cmake g++ make ccache pkg-config
   libopenvdb-dev libboost-iostreams-dev libtbb-dev libopenmesh-dev libcgal-dev
   libtinygltf-dev libstb-dev nlohmann-json3-dev libgtest-dev lib3mf-dev libzip-dev
-  libmeshoptimizer-dev libpng-dev libhwy-dev clang-16 libfuzzer-16-dev libclang-rt-16-dev
+  libmeshoptimizer-dev libpng-dev libhwy-dev clang-16 libfuzzer-16-dev libclang-rt-16-dev llvm-16
   pybind11-dev python3-pybind11 python3-dev python3-numpy python3-pytest blender xvfb xauth
   libopenmpi-dev openmpi-bin
   libcpp-httplib-dev chromium)

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <random>
 
 #include "io_fixtures.h"
 #include "qjulia/base/atomic_file.h"
@@ -266,6 +267,81 @@ TEST(CliFiles, ABadMeshFileGetsTheSameVerdictFromEveryCommand) {
   expect_exit(qjulia("compare " + quote(good) + " " + quote(bad) + " --quiet"), 2, verdict);
   expect_exit(qjulia("render " + quote(bad) + " -o " + quote(dir.file("x.png"))), 2, verdict);
   EXPECT_FALSE(fs::exists(dir.file("x.png")));
+}
+
+// The text of `run`'s one-line error after `path` ("" when the output does not name it).
+std::string verdict_after(const io_fixtures::Run& run, const std::string& path) {
+  const auto at = run.out.find(path + ": ");
+  if (at == std::string::npos) return "";
+  return run.out.substr(at + path.size(), run.out.find('\n', at) - at - path.size());
+}
+
+// Mutated files of every format through both commands that read meshes: the same verdict from
+// each, exit 0 or 2, and on 2 the file named with the same reason and no image left. A GLB
+// with 64 random bytes inserted in its body once made `compare` die with SIGSEGV while `render`
+// drew it; bytes inserted into or cut from a GLB now make its header's length wrong, which is
+// refused.
+TEST(CliFiles, MutatedMeshFilesGetTheSameVerdictFromCompareAndRender) {
+  TempDir dir;
+  const std::string other = sphere_file(dir, "other.ply");
+  const std::string png = dir.file("x.png");
+  std::mt19937 rng(12);
+  auto random_below = [&](std::size_t n) { return std::size_t(rng() % n); };
+  auto verdicts = [&](const std::string& m) {
+    const io_fixtures::Run c =
+        qjulia("compare " + quote(m) + " " + quote(other) + " --quiet --samples 1000 --threads 1");
+    const io_fixtures::Run r =
+        qjulia("render " + quote(m) + " -o " + quote(png) + " --size 32 --threads 1");
+    EXPECT_EQ(c.code, r.code) << m << "\ncompare: " << c.out << "\nrender: " << r.out;
+    EXPECT_TRUE(c.code == 0 || c.code == 2) << m << ": " << c.out;
+    if (c.code == 2) {
+      EXPECT_NE(verdict_after(c, m), "") << "compare does not name " << m << ": " << c.out;
+      EXPECT_EQ(verdict_after(c, m), verdict_after(r, m));
+      EXPECT_FALSE(fs::exists(png));
+    }
+    fs::remove(png);
+    return c.code;
+  };
+  for (const std::string& ext : kExtensions) {
+    const std::string bytes = read_bytes(sphere_file(dir, "base" + ext));
+    const std::size_t body = ext == ".glb" ? 12 : 0;  // after the GLB's 12-byte header
+    for (int i = 0; i < 6; ++i) {
+      std::string b = bytes;
+      if (i % 3 == 0) {
+        std::string noise(64, '\0');
+        for (char& c : noise) c = char(rng());
+        b.insert(body + random_below(b.size() - body), noise);
+      } else if (i % 3 == 1) {
+        for (std::size_t k = 1 + random_below(8); k > 0; --k)
+          b[body + random_below(b.size() - body)] ^= char(1 << random_below(8));
+      } else {
+        b.resize(random_below(b.size()));
+      }
+      SCOPED_TRACE(ext + " mutation " + std::to_string(i));
+      verdicts(write_bytes(dir.file("m" + ext), b));
+    }
+  }
+  const std::string glb = read_bytes(dir.file("base.glb"));
+  for (int i = 0; i < 10; ++i) {
+    std::string b = glb;
+    b.insert(12 + random_below(b.size() - 12), std::string(64, char(rng())));
+    const std::string m = write_bytes(dir.file("inserted.glb"), b);
+    EXPECT_EQ(verdicts(m), 2);
+    EXPECT_EQ(verdict_after(qjulia("render " + quote(m) + " -o " + quote(png)), m),
+              ": not a valid GLB file (its header says " + std::to_string(glb.size()) +
+                  " bytes, the file has " + std::to_string(b.size()) + ")");
+  }
+}
+
+// Bytes of the file quoted in an error (an OBJ's bad face vertex) cannot break the one line
+// or reach the terminal as control characters: they are written as \xNN.
+TEST(CliFiles, AnErrorQuotingTheFileStaysOneLineWithoutControlCharacters) {
+  TempDir dir;
+  const std::string obj =
+      write_bytes(dir.file("bad.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\x1b[2J\x07\x7fz\n");
+  const io_fixtures::Run r = qjulia("render " + quote(obj) + " -o " + quote(dir.file("x.png")));
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_EQ(r.out, "qjulia render: " + obj + ": line 4: bad face vertex '3\\x1b[2J\\x07\\x7fz'\n");
 }
 
 TEST(CliFiles, AnInputThatWouldNotFitInMemoryExitsTwoBeforeItIsAllocated) {

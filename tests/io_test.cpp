@@ -441,14 +441,45 @@ TEST(ThreeMf, DecompressingToMoreThanAHundredTimesTheFileIsRefusedEvenWhenHeader
   EXPECT_EQ(qjulia::read_mesh(threemf_with_model(dir, head + std::string(1000, ' ') + tail))
                 .triangles.size(),
             1u);
-  // 30 MB of blanks compress to some 30 kB.
-  const std::string bomb = threemf_with_model(dir, head + std::string(30 << 20, ' ') + tail);
+  // 30 MB of a comment compress to some 30 kB.
+  const std::string bomb =
+      threemf_with_model(dir, head + "<!--" + std::string(30 << 20, '-') + "-->" + tail);
   EXPECT_LT(fs::file_size(bomb), 100000u);
   const std::string msg = refusal([&] { qjulia::read_mesh(bomb); });
   EXPECT_EQ(msg.rfind(bomb + ": refused: the archive decompresses to more than ", 0), 0u) << msg;
   EXPECT_TRUE(has(msg, "100 times its size")) << msg;
   understate_sizes(bomb, 1000);
   EXPECT_TRUE(has(refusal([&] { qjulia::read_mesh(bomb); }), "refused: the archive"));
+}
+
+TEST(ThreeMf, WhitespaceThatOverflowsLib3mfsXmlReaderIsRefused) {
+  // lib3mf 1.8 records every whitespace character between an attribute's name and its '=' in
+  // arrays of its 64 KiB buffer's size, unchecked: these well-formed models crashed the reader
+  // (SIGSEGV, or glibc's "double free or corruption"); mesh_3mf_fuzz found the first kind.
+  TempDir dir;
+  const std::string head = R"(<?xml version="1.0" encoding="UTF-8"?><model unit="millimeter" )";
+  const std::string rest =
+      R"(xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02"><resources><object id="1" type="model"><mesh><vertices><vertex x="0" y="0" z="0"/><vertex x="1" y="0" z="0"/><vertex x="0" y="1" z="0"/></vertices><triangles><triangle v1="0" v2="1" v3="2"/></triangles></mesh></object></resources><build><item objectid="1"/></build></model>)";
+  const std::string one_run = threemf_with_model(
+      dir, head + R"(xmlns:p="urn:x" p:q)" + std::string(32768, ' ') + R"(="1" )" + rest);
+  const std::string msg = refusal([&] { qjulia::read_mesh(one_run); });
+  EXPECT_EQ(msg, one_run +
+                     ": refused: the part '3D/3dmodel.model' holds more than 4096 whitespace "
+                     "characters in a row (lib3mf, which reads 3MF files, overflows its memory "
+                     "on such XML)");
+  std::string attributes;
+  for (int i = 0; i < 12; ++i) {
+    const std::string p = "p" + std::to_string(i);
+    attributes += "xmlns:" + p + R"(="urn:x" )" + p + ":q" + std::string(4000, ' ') + R"(="1" )";
+  }
+  const std::string many = threemf_with_model(dir, head + attributes + rest);
+  EXPECT_TRUE(has(refusal([&] { qjulia::read_mesh(many); }),
+                  "holds more than 4096 whitespace characters before '=' signs"));
+  // 4096 blanks in a row between elements, and a few before an '=' in text, are read.
+  const std::string fine = threemf_with_model(
+      dir, head + rest.substr(0, rest.find("<resources>")) + std::string(4096, '\n') +
+               "<metadata name=\"x\">a  = b</metadata>" + rest.substr(rest.find("<resources>")));
+  EXPECT_EQ(qjulia::read_mesh(fine).triangles.size(), 1u);
 }
 
 // ------------------------------------------------------------------------ writers

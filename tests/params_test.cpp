@@ -5,7 +5,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <functional>
+#include <iterator>
 #include <limits>
 #include <string>
 #include <utility>
@@ -539,6 +542,26 @@ TEST(Ranges, ValidateRefusesNonFiniteValuesNamingTheFieldAndTheRange) {
   Params p;
   p.slice.general = Slice::General{{}, {Quat{nan, 0, 0, 0}, Quat{0, 1, 0, 0}, Quat{0, 0, 1, 0}}};
   EXPECT_NE(validate_error(p).find("slice"), std::string::npos);
+}
+
+// Parameter files the fuzzer found (tests/fuzz/regressions/params/), read as params_fuzz reads
+// them: each parses, and writes back to a file that parses to the same, or is InvalidInput.
+TEST(FuzzRegressions, EveryParameterFileThatOnceFailedParsesOrIsRefusedCleanly) {
+  const std::filesystem::path dir =
+      std::filesystem::path(QJULIA_SOURCE_DIR) / "tests/fuzz/regressions/params";
+  std::size_t inputs = 0;
+  for (const auto& e : std::filesystem::directory_iterator(dir)) {
+    ++inputs;
+    std::ifstream in(e.path(), std::ios::binary);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    SCOPED_TRACE(e.path().string());
+    try {
+      const std::string json = params_to_json(parse_params(text, "fuzz"));
+      EXPECT_EQ(params_to_json(parse_params(json, "fuzz")), json);
+    } catch (const InvalidInput&) {
+    }
+  }
+  EXPECT_GT(inputs, 0u);
 }
 
 }  // namespace

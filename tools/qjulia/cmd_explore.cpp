@@ -38,9 +38,9 @@ options:
                              address); the server then also answers to the host ADDR:P.
                              Anyone who reaches ADDR can use the server
   --threads T                worker threads of every job, 1..1024 (default: all cores)
-  --max-memory SIZE          the memory of all jobs together, e.g. 4G (default: half of what
-                             the system has free); a quarter goes to previews, the rest to an
-                             export
+  --max-memory SIZE          the memory of all jobs together, e.g. 4G (K, M, G, T = 2^10..
+                             2^40 bytes; at least 1M; default: half of what the system has
+                             free); a quarter goes to previews, the rest to an export
 )help";
 
 constexpr ValueRange kPortRange{0, 65535};

@@ -28,6 +28,24 @@ commands:
 'qjulia COMMAND --help' describes a command's options.
 )";
 
+/// `text` as one line: control characters (bytes of a hostile file quoted in a message, a
+/// newline or an escape sequence among them) are written as \xNN, so an error stays one line
+/// and cannot drive the terminal.
+std::string one_line(const char* text) {
+  std::string out;
+  for (const char* p = text; *p; ++p) {
+    const auto c = static_cast<unsigned char>(*p);
+    if (c < 0x20 || c == 0x7f) {
+      char escaped[5];
+      std::snprintf(escaped, sizeof escaped, "\\x%02x", c);
+      out += escaped;
+    } else {
+      out += *p;
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -60,7 +78,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "qjulia: unknown command '%s' (try 'qjulia help')\n", command.c_str());
     return 2;
   } catch (const qjulia::InvalidInput& e) {
-    std::fprintf(stderr, "qjulia %s: %s\n", command.c_str(), e.what());
+    std::fprintf(stderr, "qjulia %s: %s\n", command.c_str(), one_line(e.what()).c_str());
     return 2;
   } catch (const qjulia::Cancelled&) {
     // Everything the command wrote is removed by now (its OutputFiles and AtomicFiles unwound).
@@ -72,7 +90,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "qjulia %s: cancelled\n", command.c_str());
     return 1;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "qjulia %s: error: %s\n", command.c_str(), e.what());
+    std::fprintf(stderr, "qjulia %s: error: %s\n", command.c_str(), one_line(e.what()).c_str());
     return 1;
   }
 }

@@ -229,7 +229,9 @@ void write_gltf(const std::string& path, const ExportData& data, bool binary) {
 namespace {
 
 /// The parts of a GLB, checked against its size (tinygltf 2.7 reads 8 bytes past the end of
-/// a file whose BIN chunk claims the bytes of its own header).
+/// a file whose BIN chunk claims the bytes of its own header). The header's length must be the
+/// file's (glTF 2.0, GLB header): bytes inserted into or cut from a file are refused, not read
+/// as a shifted buffer.
 struct GlbParts {
   std::string_view json;
   std::size_t length = 0;  ///< the GLB's own length (the bytes given to tinygltf)
@@ -243,7 +245,12 @@ GlbParts split_glb(std::string_view bytes, const ReadContext& ctx) {
   if (head[1] != 2) ctx.fail("GLB version " + std::to_string(head[1]) + " (only 2 is read)");
   const uint64_t length = head[2];
   const uint64_t json_end = 20 + uint64_t(head[3]);
-  if (length > bytes.size() || head[4] != kChunkJson || head[3] == 0 || json_end > length) {
+  if (length != bytes.size()) {
+    ctx.fail(std::string(length > bytes.size() ? "the GLB is truncated" : "not a valid GLB file") +
+             " (its header says " + std::to_string(length) + " bytes, the file has " +
+             std::to_string(bytes.size()) + ")");
+  }
+  if (head[4] != kChunkJson || head[3] == 0 || json_end > length) {
     ctx.fail("not a valid GLB file (its header says " + std::to_string(length) +
              " bytes and a JSON chunk of " + std::to_string(head[3]) + ", the file has " +
              std::to_string(bytes.size()) + ")");

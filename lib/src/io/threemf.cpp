@@ -1,6 +1,7 @@
 // 3MF through lib3mf 1.8 (its C interface), writer and reader. The only file that includes
 // lib3mf headers. Before lib3mf sees a file, libzip (the zip library lib3mf reads it with)
-// decompresses every entry once, counting, so a zip bomb is refused before it is parsed.
+// decompresses every entry once, counting, so a zip bomb is refused before it is parsed, and
+// looking for the whitespace that overflows lib3mf's XML reader (ArchiveScan below).
 #include <Model/COM/NMR_DLLInterfaces.h>
 #include <zip.h>
 
@@ -25,6 +26,19 @@ static_assert(sizeof(MODELMESHVERTEX) == 12 && sizeof(MODELMESHTRIANGLE) == 12,
 /// the XML of a mesh compresses 4 to 10 times, a zip bomb a thousand times.
 constexpr std::size_t kMaxRatio = 100;
 constexpr std::size_t kMinDecompressed = std::size_t(1) << 20;
+
+/// lib3mf 1.8's XML reader (NMR_XmlReader_Native.cpp, parseAttributeName) records one entity
+/// and one or two zero-inserts for every whitespace character between an attribute's name and
+/// its '=' (or wherever that whitespace ends), in arrays of its 64 KiB read buffer's size that
+/// it never checks: 32768 spaces after a prefixed attribute name, or twelve attributes of one
+/// tag with 4000 spaces each before '=', overflow the heap (found by mesh_3mf_fuzz; XML allows
+/// such whitespace, no writer produces it, and lib3mf refuses two or more of those spaces when
+/// it survives them). Every part is therefore refused when it holds a whitespace run longer
+/// than kMaxWhitespaceRun, or more than kMaxWhitespaceBeforeEquals whitespace characters in
+/// runs directly before an '=': at most 2 x 8192 zero-inserts come from whitespace in one
+/// buffer, the other entities of a buffer take fewer than one per two characters.
+constexpr std::size_t kMaxWhitespaceRun = 4096;
+constexpr std::size_t kMaxWhitespaceBeforeEquals = 4096;
 
 /// Owns one lib3mf object and releases it.
 class Handle {
@@ -201,9 +215,38 @@ struct ZipCloser {
   void operator()(zip_t* z) const { zip_discard(z); }
 };
 
+/// The whitespace of one decompressed part, fed in blocks (kMaxWhitespaceRun above).
+class WhitespaceScan {
+ public:
+  /// Why the part is refused, or "" while it is not.
+  std::string feed(const char* p, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i) {
+      const char c = p[i];
+      if (c == ' ' || c == '\t' || c == '\n' || c == '\r') {
+        if (++run_ > kMaxWhitespaceRun) {
+          return "holds more than " + std::to_string(kMaxWhitespaceRun) +
+                 " whitespace characters in a row";
+        }
+        continue;
+      }
+      if (c == '=' && (before_equals_ += run_) > kMaxWhitespaceBeforeEquals) {
+        return "holds more than " + std::to_string(kMaxWhitespaceBeforeEquals) +
+               " whitespace characters before '=' signs";
+      }
+      run_ = 0;
+    }
+    return "";
+  }
+
+ private:
+  std::size_t run_ = 0;
+  std::size_t before_equals_ = 0;
+};
+
 /// Decompresses every entry of the zip in `bytes` with libzip, discarding the output, and
-/// refuses the file when the total exceeds kMaxRatio times its size: zip headers may
-/// understate sizes, so they are counted, not believed. Returns the total.
+/// refuses the file when the total exceeds kMaxRatio times its size (zip headers may
+/// understate sizes, so they are counted, not believed) or when a part holds the whitespace
+/// that lib3mf's XML reader overflows on (WhitespaceScan). Returns the total.
 std::size_t check_decompressed_size(std::string_view bytes, ReadContext& ctx) {
   const std::size_t cap = std::max(kMaxRatio * bytes.size(), kMinDecompressed);
   zip_error_t error;
@@ -224,6 +267,7 @@ std::size_t check_decompressed_size(std::string_view bytes, ReadContext& ctx) {
   for (zip_int64_t i = 0; i < entries; ++i) {
     zip_file_t* f = zip_fopen_index(archive.get(), zip_uint64_t(i), 0);
     if (!f) continue;  // lib3mf will report what it cannot open
+    WhitespaceScan scan;
     zip_int64_t n;
     while ((n = zip_fread(f, buffer.data(), buffer.size())) > 0) {
       total += std::size_t(n);
@@ -232,6 +276,13 @@ std::size_t check_decompressed_size(std::string_view bytes, ReadContext& ctx) {
         ctx.fail("refused: the archive decompresses to more than " + std::to_string(cap) +
                  " bytes, " + std::to_string(kMaxRatio) +
                  " times its size (a zip bomb or not a mesh)");
+      }
+      const std::string why = scan.feed(buffer.data(), std::size_t(n));
+      if (!why.empty()) {
+        zip_fclose(f);
+        const char* name = zip_get_name(archive.get(), zip_uint64_t(i), 0);
+        ctx.fail("refused: the part '" + std::string(name ? name : "?") + "' " + why +
+                 " (lib3mf, which reads 3MF files, overflows its memory on such XML)");
       }
     }
     zip_fclose(f);
