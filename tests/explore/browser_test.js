@@ -93,7 +93,12 @@ async function main() {
       ['clipboard-read', 'clipboard-write', 'clipboard-sanitized-write']);
     const page = await browser.newPage();
     page.on('pageerror', (e) => problems.push(`page error: ${e.message}`));
-    page.on('console', (m) => { if (m.type() === 'error') problems.push(`console: ${m.text()}`); });
+    page.on('console', (m) => {
+      // Chromium logs every 4xx answer to a fetch; those the response handler below expects are not problems.
+      if (m.type() === 'error' && !/^Failed to load resource: the server responded with a status of (400|409)\b/.test(m.text())) {
+        problems.push(`console: ${m.text()}`);
+      }
+    });
     page.on('response', (r) => {
       // A 400 is a shown message (the formula error below) and a 409 a cancelled preview.
       if (r.status() >= 400 && ![400, 409].includes(r.status())) problems.push(`HTTP ${r.status()} ${r.url()}`);
@@ -108,8 +113,18 @@ async function main() {
     }));
     // Waits until the newest edit's preview at `resolution` is on screen.
     const waitShown = async (resolution, timeout = 60000) => {
-      await page.waitForFunction((res) => explore.shown && explore.shown.generation === explore.generation &&
-        explore.shown.resolution === res, { timeout }, resolution);
+      try {
+        await page.waitForFunction((res) => explore.shown && explore.shown.generation === explore.generation &&
+          explore.shown.resolution === res, { timeout }, resolution);
+      } catch (e) {
+        // What the page was doing, for the log.
+        const seen = await page.evaluate(() => ({
+          generation: explore.generation, shown: explore.shown, retries: explore.retries,
+          status: document.getElementById('status').textContent,
+        }));
+        throw new Error(`no preview at ${resolution}^3 of the newest edit within ${timeout} ms: ` +
+          `${JSON.stringify(seen)}; ${e.message}`);
+      }
       return state();
     };
     const snapshot = () => page.evaluate(() => explore.snapshot());
@@ -273,6 +288,35 @@ async function main() {
     }, null, 1)}\n`);
     check(cached === 0 && warm.every((x) => x > 0) && bursts.every((x) => x > 0),
       'the latency of every edit was measured on a fresh mesh');
+
+    // A preview cancelled by something other than this page's own edits and Stop (a request of
+    // an older edit that reached the server late, another page) is asked for again: here the
+    // refined preview is cancelled through the API while it runs.
+    {
+      const retries = await page.evaluate(() => explore.retries);
+      // The edit's quick preview, then its refined one while it runs.
+      await setField('#detail', detail);
+      await setField('#bailout-cutoff', 0.0105);
+      await waitShown(64);
+      try {
+        await page.waitForFunction((res) => explore.running && explore.running.generation === explore.generation &&
+          explore.running.resolution === res, { timeout: 60000, polling: 5 }, detail);
+      } catch (e) {
+        const seen = await page.evaluate(() => ({ generation: explore.generation, running: explore.running,
+          shown: explore.shown, detail: document.getElementById('detail').value }));
+        throw new Error(`the refined preview did not start: ${JSON.stringify(seen)}`);
+      }
+      let stopped = false;
+      for (let k = 0; k < 500 && !stopped; ++k) {
+        const r = await fetch(new URL('/api/preview/cancel', url), { method: 'POST', body: '' });
+        stopped = (await r.json()).stopped === true;
+        if (!stopped) await sleep(5);
+      }
+      s = await waitShown(detail);
+      const after = await page.evaluate(() => explore.retries);
+      check(stopped && after > retries, 'a preview that something else cancelled is asked for again and shown',
+        `cancelled while running: ${stopped}, retries ${retries} -> ${after}, ${s.shown.figures.faces} faces at ${detail}^3`);
+    }
 
     // Standard and extended side by side, with their Hausdorff distance.
     await setField('#detail', 96);

@@ -9,6 +9,7 @@ const kQuickResolution = 64;
 const kRefineDelayMs = 600;
 const kCompareSamples = 200000;
 const kRegionStep = 0.1;  // of the box's side, per arrow
+const kRetries = 3;  // of a preview that something else cancelled (see runCycle)
 
 // What the browser test reads (tests/explore/browser_test.js).
 const explore = {
@@ -17,6 +18,8 @@ const explore = {
   shown: null,     // the newest preview on screen: {generation, resolution, latencyMs, figures}
   latencies: [],   // ms from an edit to its first preview on screen
   compare: null,   // the newest comparison
+  retries: 0,      // previews asked for again after something else cancelled them
+  running: null,   // the preview being made: {generation, resolution}
   exportState: null,
   errors: [],
 };
@@ -96,9 +99,11 @@ function startCycle() {
 
 // One preview (or two and their comparison, side by side): 'shown' when it reached the screen,
 // 'empty' when the solid is empty, false otherwise (cancelled, an error).
-async function runCycle(generation, resolution, signal) {
+async function runCycle(generation, resolution, signal, attempt = 0) {
   const current = () => generation === explore.generation && !signal.aborted;
   const params = panel.params();
+  const running = { generation, resolution };
+  explore.running = running;
   setBusy(true);
   try {
     const check = await api.check(params, signal);
@@ -164,10 +169,21 @@ async function runCycle(generation, resolution, signal) {
     if (first) explore.latencies.push({ generation, resolution, ms: latencyMs });
     return 'shown';
   } catch (e) {
+    // The server runs the preview it received last. Requests travel on separate connections, so
+    // one of an older edit, sent just before its edit was superseded, can reach the server after
+    // this one and cancel it; so can another page, or Stop pressed in another page. This page's
+    // own newer edits and Stop abort `signal` first: a cancelled preview that is still current
+    // was cancelled by something else, and is asked for again (a few times, so that two pages
+    // cannot cancel each other forever).
+    if (e instanceof ApiError && e.cancelled && current() && attempt < kRetries) {
+      ++explore.retries;
+      return await runCycle(generation, resolution, signal, attempt + 1);
+    }
     if (e.name === 'AbortError' || (e instanceof ApiError && e.cancelled)) return false;
     if (current()) showError(e);
     return e instanceof ApiError && e.body.empty === true ? 'empty' : false;
   } finally {
+    if (explore.running === running) explore.running = null;
     if (generation === explore.generation) setBusy(false);
   }
 }
