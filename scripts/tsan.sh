@@ -7,7 +7,7 @@
 # join is invisible). So the script builds libtbb itself with -fsanitize=thread from Debian's
 # source of the installed version (deb.debian.org's pool, checked against the .dsc's SHA-256,
 # Debian's patches applied) into build-tsan/tbb/, and the tests load it. No suppression.
-# Not part of CI (about 10 minutes on two cores); the findings are in docs/robustness.md.
+# Not part of CI (about 20 minutes on two cores); the findings are in docs/robustness.md.
 # Usage: scripts/tsan.sh [gtest filter]   e.g. scripts/tsan.sh 'Decimate.*'
 set -euo pipefail
 cd "$(dirname "$0")/.."
