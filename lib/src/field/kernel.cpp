@@ -92,6 +92,43 @@ HWY_INLINE Q sqr(const Q& a) {
 }
 HWY_INLINE V reciprocal(V x);
 
+// The metric of the step from h to q and whether the orbit leaves there: escape, |q|^2 > R^2
+// (NaN and inf leave too); cut-off, |q - h|^2 < r^2 (converged), or a pole or an overflow (a
+// large step that never converges).
+template <bool kEscape>
+HWY_INLINE V step_metric(const Q& q, const Q& h, V r2, M& exit) {
+  if (kEscape) {
+    const V metric = norm2(q);
+    exit = hn::Not(hn::Le(metric, r2));
+    return metric;
+  }
+  const V metric = norm2(sub(q, h));
+  exit = hn::Or(hn::Not(hn::Ge(metric, r2)), hn::Not(hn::IsFinite(metric)));
+  return metric;
+}
+
+// The step code a decided orbit keeps: its exit step k, -1 when it never left, -2 for a
+// cut-off orbit that left on a non-finite step.
+template <bool kEscape>
+HWY_INLINE V exit_code(M exit, V k, V metric) {
+  const D d;
+  const V code = hn::IfThenElse(exit, k, hn::Set(d, -1.0));
+  if (kEscape) return code;
+  return hn::IfThenElse(hn::IsFinite(metric), code, hn::Set(d, -2.0));
+}
+
+// One step of a single-operation map: h^2, plus the literal (kAdd 1), c (2) or the literal's
+// real part (3); the metric and exit as step_metric().
+template <int kAdd, bool kEscape>
+HWY_INLINE Q single_op_step(const Q& h, const Q& c, const Q& lit, V r2, V& metric, M& exit) {
+  Q q = sqr(h);
+  if (kAdd == 1) q = add(q, lit);
+  if (kAdd == 2) q = add(q, c);
+  if (kAdd == 3) q.w = hn::Add(q.w, lit.w);
+  metric = step_metric<kEscape>(q, h, r2, exit);
+  return q;
+}
+
 // 1 / n for a squared norm n: the fast reciprocal where n is a normal number, a division
 // elsewhere (0, subnormal, inf), so poles and overflow come out as in the scalar path.
 HWY_INLINE V reciprocal_of_norm(V n) {
@@ -632,16 +669,9 @@ class Machine {
     const V g = hn::Set(d, static_cast<double>(sweeps_));
     for (std::size_t o = 0; o < lanes_; o += nl) {
       const Q q = next.load(o);
-      V metric;
       M exit;
-      if (s_->escape) {
-        metric = norm2(q);
-        exit = hn::Not(hn::Le(metric, r2));  // NaN and inf leave too
-      } else {
-        metric = norm2(sub(q, h.load(o)));
-        // Converged, or a pole or an overflow (a large step that never converges).
-        exit = hn::Or(hn::Not(hn::Ge(metric, r2)), hn::Not(hn::IsFinite(metric)));
-      }
+      const V metric = s_->escape ? step_metric<true>(q, q, r2, exit)
+                                  : step_metric<false>(q, h.load(o), r2, exit);
       if (!result_is_temp_ && s_->result != 0) h.store(o, q);
       hn::Store(metric, d, metric_ + o);
       const V ext = extreme(hn::Load(d, ext_ + o), metric);
@@ -650,8 +680,8 @@ class Machine {
       const M open = hn::Not(hn::MaskFromVec(hn::Load(d, frozen_ + o)));
       const M now = hn::And(open, hn::Or(exit, hn::Eq(k, iters)));
       if (hn::AllFalse(d, now)) continue;
-      V code = hn::IfThenElse(exit, k, hn::Set(d, -1.0));
-      if (!s_->escape) code = hn::IfThenElse(hn::IsFinite(metric), code, hn::Set(d, -2.0));
+      const V code =
+          s_->escape ? exit_code<true>(exit, k, metric) : exit_code<false>(exit, k, metric);
       hn::BlendedStore(code, now, d, cap_code_ + o);
       hn::BlendedStore(metric, now, d, cap_a_ + o);
       hn::BlendedStore(second(code, hn::Load(d, prev_ + o), ext), now, d, cap_b_ + o);
@@ -705,7 +735,7 @@ class Machine {
     const KernelOp& op = s_->kops[0];
     const Q lit = broadcast(op.add_lit);
     const V r2 = hn::Set(d, s_->r2), iters = hn::Set(d, s_->iterations), one = hn::Set(d, 1.0);
-    const V minus1 = hn::Set(d, -1.0), minus2 = hn::Set(d, -2.0), zero = hn::Zero(d);
+    const V zero = hn::Zero(d);
     Q h[kGroup], c[kGroup];
     V prev[kGroup], k[kGroup], idx[kGroup], ext[kGroup];
     __mmask8 live[kGroup];
@@ -753,24 +783,13 @@ class Machine {
       for (int step = 0; step < kSteps; ++step) {
 #pragma GCC unroll 4
         for (std::size_t g = 0; g < kGroup; ++g) {
-          Q q = sqr(h[g]);
-          if (kAdd == 1) q = add(q, lit);
-          if (kAdd == 2) q = add(q, c[g]);
-          if (kAdd == 3) q.w = hn::Add(q.w, lit.w);
           V metric;
           M exit;
-          if (kEscape) {
-            metric = norm2(q);
-            exit = hn::Not(hn::Le(metric, r2));
-          } else {
-            metric = norm2(sub(q, h[g]));
-            exit = hn::Or(hn::Not(hn::Ge(metric, r2)), hn::Not(hn::IsFinite(metric)));
-          }
+          const Q q = single_op_step<kAdd, kEscape>(h[g], c[g], lit, r2, metric, exit);
           k[g] = hn::Add(k[g], one);
           ext[g] = kEscape ? hn::Max(ext[g], metric) : hn::Min(ext[g], metric);
           const __mmask8 now = live[g] & hn::Or(exit, hn::Eq(k[g], iters)).raw;
-          V code = hn::IfThenElse(exit, k[g], minus1);
-          if (!kEscape) code = hn::IfThenElse(hn::IsFinite(metric), code, minus2);
+          const V code = exit_code<kEscape>(exit, k[g], metric);
           _mm512_mask_store_pd(cap[0] + 8 * g, now, code.raw);
           _mm512_mask_store_pd(cap[1] + 8 * g, now, metric.raw);
           _mm512_mask_store_pd(cap[2] + 8 * g, now, second(code, prev[g], ext[g]).raw);
@@ -813,7 +832,7 @@ class Machine {
     const Q lit = broadcast(op.add_lit);
     const Slot c = slot_[op.add_reg];
     const V r2 = hn::Set(d, s_->r2), iters = hn::Set(d, s_->iterations), one = hn::Set(d, 1.0);
-    const V minus1 = hn::Set(d, -1.0), minus2 = hn::Set(d, -2.0), zero = hn::Zero(d);
+    const V zero = hn::Zero(d);
     // The step of each lane (start_ holds it here, not a sweep number).
     std::fill(start_, start_ + lanes_, 0.0);
     const Slot h = slot_[0];
@@ -839,25 +858,15 @@ class Machine {
 #pragma GCC unroll 4
           for (std::size_t g = 0; g < kGroup; ++g) {
             const std::size_t o = base + g * nl;
-            Q q = sqr(hv[g]);
-            if (kAdd == 1) q = add(q, lit);
-            if (kAdd == 2) q = add(q, c.load(o));
-            if (kAdd == 3) q.w = hn::Add(q.w, lit.w);
             V metric;
             M exit;
-            if (kEscape) {
-              metric = norm2(q);
-              exit = hn::Not(hn::Le(metric, r2));
-            } else {
-              metric = norm2(sub(q, hv[g]));
-              exit = hn::Or(hn::Not(hn::Ge(metric, r2)), hn::Not(hn::IsFinite(metric)));
-            }
+            Q q = single_op_step<kAdd, kEscape>(hv[g], kAdd == 2 ? c.load(o) : lit, lit, r2, metric,
+                                                exit);
             k[g] = hn::Add(k[g], one);
             ext[g] = kEscape ? hn::Max(ext[g], metric) : hn::Min(ext[g], metric);
             const M now = hn::AndNot(frozen[g], hn::Or(exit, hn::Eq(k[g], iters)));
             if (HWY_UNLIKELY(!hn::AllFalse(d, now))) {
-              V code = hn::IfThenElse(exit, k[g], minus1);
-              if (!kEscape) code = hn::IfThenElse(hn::IsFinite(metric), code, minus2);
+              const V code = exit_code<kEscape>(exit, k[g], metric);
               hn::BlendedStore(code, now, d, cap_code_ + o);
               hn::BlendedStore(metric, now, d, cap_a_ + o);
               hn::BlendedStore(second(code, prev[g], ext[g]), now, d, cap_b_ + o);

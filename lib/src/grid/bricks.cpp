@@ -1050,6 +1050,21 @@ struct BrickSampler::Sampling {
     remote.clear();
   }
 
+  // Runs f(items + i, count, batch) for the groups of kGroup of items[0, n), in parallel, with
+  // a batch per thread.
+  template <class T, class F>
+  void in_groups(T* items, std::size_t n, F&& f) {
+    tbb::parallel_for(
+        tbb::blocked_range<std::size_t>(0, n, kGroup),
+        [&](const tbb::blocked_range<std::size_t>& r) {
+          im.check_cancel();
+          thread_local Batch b;
+          for (std::size_t i = r.begin(); i < r.end(); i += kGroup)
+            f(items + i, std::min(kGroup, r.end() - i), b);
+        },
+        tbb::simple_partitioner());
+  }
+
   // Runs f(indices, count, batch) for groups of the bricks of `keys`, in eight classes by
   // coordinate parity (see Impl::need), each class in parallel; a distributed run copies the
   // changed bricks to the neighbouring ranks after each class.
@@ -1061,15 +1076,7 @@ struct BrickSampler::Sampling {
       cls[(c.x & 1) | ((c.y & 1) << 1) | ((c.z & 1) << 2)].push_back(n);
     }
     for (const auto& members : cls) {
-      tbb::parallel_for(
-          tbb::blocked_range<std::size_t>(0, members.size(), kGroup),
-          [&](const tbb::blocked_range<std::size_t>& r) {
-            im.check_cancel();
-            thread_local Batch b;
-            for (std::size_t i = r.begin(); i < r.end(); i += kGroup)
-              f(members.data() + i, std::min(kGroup, r.end() - i), b);
-          },
-          tbb::simple_partitioner());
+      in_groups(members.data(), members.size(), f);
       if (dist) {
         std::vector<Brick*> changed;
         for (std::size_t n : members) changed.push_back(bricks.find(keys[n]));
@@ -1361,15 +1368,9 @@ struct BrickSampler::Sampling {
               [](const Brick* a, const Brick* b) { return a->key < b->key; });
     for (Brick* b : members) b->scheduled = false;
     tbb::enumerable_thread_specific<Outbox> outboxes;
-    tbb::parallel_for(
-        tbb::blocked_range<std::size_t>(0, members.size(), kGroup),
-        [&](const tbb::blocked_range<std::size_t>& r) {
-          im.check_cancel();
-          thread_local Batch b;
-          for (std::size_t i = r.begin(); i < r.end(); i += kGroup)
-            im.visit(members.data() + i, std::min(kGroup, r.end() - i), b, outboxes.local());
-        },
-        tbb::simple_partitioner());
+    in_groups(members.data(), members.size(), [&](Brick* const* group, std::size_t n, Batch& b) {
+      im.visit(group, n, b, outboxes.local());
+    });
     visits += members.size();
     {
       std::lock_guard<std::mutex> lock(report_mutex);
