@@ -768,8 +768,10 @@ class Machine {
       taken_ += static_cast<std::size_t>(__builtin_popcount(m));
       return m;
     };
-    // What a decided lane leaves for F, captured by masked stores (no branch per step).
-    HWY_ALIGN double cap[3][kGroup * 8];
+    // What a decided lane leaves for F is captured by masked stores (no branch per step) into
+    // cap_code_, cap_a_ and cap_b_: members, not a stack array, whose offset from the queue
+    // changes with each process's stack and at some offsets made the masked stores and the
+    // queue's loads alias (4 KiB apart), a third of the kernel's speed lost in those processes.
     __mmask8 pending[kGroup];  // lanes decided since their last refill
     for (std::size_t g = 0; g < kGroup; ++g) {
       h[g] = c[g] = {zero, zero, zero, zero};
@@ -790,9 +792,9 @@ class Machine {
           ext[g] = kEscape ? hn::Max(ext[g], metric) : hn::Min(ext[g], metric);
           const __mmask8 now = live[g] & hn::Or(exit, hn::Eq(k[g], iters)).raw;
           const V code = exit_code<kEscape>(exit, k[g], metric);
-          _mm512_mask_store_pd(cap[0] + 8 * g, now, code.raw);
-          _mm512_mask_store_pd(cap[1] + 8 * g, now, metric.raw);
-          _mm512_mask_store_pd(cap[2] + 8 * g, now, second(code, prev[g], ext[g]).raw);
+          _mm512_mask_store_pd(cap_code_ + 8 * g, now, code.raw);
+          _mm512_mask_store_pd(cap_a_ + 8 * g, now, metric.raw);
+          _mm512_mask_store_pd(cap_b_ + 8 * g, now, second(code, prev[g], ext[g]).raw);
           live[g] &= static_cast<__mmask8>(~now);
           pending[g] |= now;
           h[g] = {V{_mm512_mask_mov_pd(q.w.raw, now, zero.raw)},
@@ -808,8 +810,8 @@ class Machine {
         const __mmask8 waiting = static_cast<__mmask8>(~live[g]);
         if (pending[g] && (__builtin_popcount(waiting) >= kRefillAt || live[g] == 0)) {
           const M m{pending[g]};
-          finished(m, hn::Load(d, cap[0] + 8 * g), hn::Load(d, cap[1] + 8 * g),
-                   hn::Load(d, cap[2] + 8 * g), idx[g]);
+          finished(m, hn::Load(d, cap_code_ + 8 * g), hn::Load(d, cap_a_ + 8 * g),
+                   hn::Load(d, cap_b_ + 8 * g), idx[g]);
           pending[g] = 0;
           live[g] |= load(g, waiting);
         }
