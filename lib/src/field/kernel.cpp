@@ -456,18 +456,17 @@ HWY_INLINE V field_of(const KernelSetup& s, V k, V a, V b) {
   if (s.escape) {
     // step 0: N + frac(s, 1); step n: (N - n) + frac(s_n, -s_(n-1)) with s_(n-1) taken as -1
     // when h_(n-1) = 0; never: s_N.
+    // (One frac for both: N - 0 is N exactly.)
     const V sprev = hn::IfThenElse(hn::Gt(b, hn::Zero(d)), sb, hn::Set(d, -1.0));
-    const V at0 = hn::Add(iters, frac(sa, one));
-    const V atn = hn::Add(hn::Sub(iters, k), frac(sa, hn::Neg(sprev)));
-    f = hn::IfThenElse(hn::Eq(k, hn::Zero(d)), at0, atn);
+    const V other = hn::IfThenElse(hn::Eq(k, hn::Zero(d)), one, hn::Neg(sprev));
+    f = hn::Add(hn::Sub(iters, k), frac(sa, other));
     f = hn::IfThenElse(hn::Lt(k, hn::Zero(d)), sa, f);
   } else {
     // step 1: (N - 1) + frac(-t, 1); step n: (N - n) + frac(-t_n, t_(n-1)); never: -t_N;
     // pole: -limit.
+    // (One frac for both: N - k is N - 1 at step 1.)
     const V nt = hn::Neg(sa);
-    const V at1 = hn::Add(hn::Sub(iters, one), frac(nt, one));
-    const V atn = hn::Add(hn::Sub(iters, k), frac(nt, sb));
-    f = hn::IfThenElse(hn::Eq(k, one), at1, atn);
+    f = hn::Add(hn::Sub(iters, k), frac(nt, hn::IfThenElse(hn::Eq(k, one), one, sb)));
     f = hn::IfThenElse(hn::Eq(k, hn::Set(d, -1.0)), nt, f);
     f = hn::IfThenElse(hn::Eq(k, hn::Set(d, -2.0)), nbig, f);
   }
@@ -506,10 +505,10 @@ class Machine {
                                  : kMaxInFlight / 4;
     lanes_ = std::min(lanes_, (n + nl - 1) / nl * nl);
     setup_slots();
-    queue(x, y, z, n);
     if (single_op()) {
-      run_single_op();
+      run_single_op(x, y, z, n);
     } else {
+      queue(x, y, z, n);
       start();
       while (live_ > 0) sweep();
     }
@@ -705,18 +704,18 @@ class Machine {
   // previous metric, the step and the masks in registers; a group returns to memory (and its
   // decided lanes are retired and refilled) when a quarter of its lanes have decided, or
   // after kRun steps.
-  void run_single_op() {
+  void run_single_op(const double* x, const double* y, const double* z, std::size_t n) {
     const int add = s_->kops[0].add;
     if (s_->escape) {
-      if (add == 0) run_single_op<0, true>();
-      if (add == 1) run_single_op<1, true>();
-      if (add == 2) run_single_op<2, true>();
-      if (add == 3) run_single_op<3, true>();
+      if (add == 0) run_single_op<0, true>(x, y, z, n);
+      if (add == 1) run_single_op<1, true>(x, y, z, n);
+      if (add == 2) run_single_op<2, true>(x, y, z, n);
+      if (add == 3) run_single_op<3, true>(x, y, z, n);
     } else {
-      if (add == 0) run_single_op<0, false>();
-      if (add == 1) run_single_op<1, false>();
-      if (add == 2) run_single_op<2, false>();
-      if (add == 3) run_single_op<3, false>();
+      if (add == 0) run_single_op<0, false>(x, y, z, n);
+      if (add == 1) run_single_op<1, false>(x, y, z, n);
+      if (add == 2) run_single_op<2, false>(x, y, z, n);
+      if (add == 3) run_single_op<3, false>(x, y, z, n);
     }
   }
 
@@ -727,7 +726,8 @@ class Machine {
   // orbits to the finished buffer (compressing stores) and takes the next waiting points
   // (expanding loads). A data-dependent branch at every step cost more than the idle lanes.
   template <int kAdd, bool kEscape>
-  HWY_NOINLINE void run_single_op() {
+  HWY_NOINLINE void run_single_op(const double* x, const double* y, const double* z,
+                                  std::size_t n) {
     constexpr std::size_t kGroup = kAdd == 2 ? 2 : 4;  // c of each lane needs registers too
     constexpr int kSteps = 4;                          // steps between refills
     constexpr int kRefillAt = 3;                       // waiting lanes that make a vector refill
@@ -739,39 +739,66 @@ class Machine {
     Q h[kGroup], c[kGroup];
     V prev[kGroup], k[kGroup], idx[kGroup], ext[kGroup];
     __mmask8 live[kGroup];
-    const double* qh[4] = {qh_[0].data(), qh_[1].data(), qh_[2].data(), qh_[3].data()};
-    const double* qc[4] = {};
-    if (kAdd == 2)
-      for (int i = 0; i < 4; ++i) qc[i] = qc_[i].data();
-    // Loads the next waiting points into the lanes of `want` (as many as are left); returns
-    // the lanes filled.
+    // The points straight from the slice, without the queue: a[g], b[g] are x, y, z of the
+    // points into h (and c in Mandelbrot mode) as queue() computes them.
+    const Q o = broadcast(s_->origin), d0 = broadcast(s_->dir[0]), d1 = broadcast(s_->dir[1]),
+            d2 = broadcast(s_->dir[2]), start = broadcast(s_->start);
+    HWY_ALIGN static constexpr double kIota[8] = {0, 1, 2, 3, 4, 5, 6, 7};
+    const V iota = hn::Load(d, kIota);
+    const V inf = hn::Set(d, std::numeric_limits<double>::infinity());
+    std::size_t next = 0;  // the next point of the slice
+    // Loads the next points into the lanes of `want` (as many as are left); an escape orbit that
+    // starts outside the ball has decided at step 0 and goes straight to the finished ones, its
+    // lane taking the point after. Returns the lanes filled.
     auto load = [&](std::size_t g, __mmask8 want) -> __mmask8 {
-      const std::size_t left = queued_ - taken_;
-      __mmask8 m = want;
-      if (static_cast<std::size_t>(__builtin_popcount(want)) > left)
-        m = static_cast<__mmask8>(_pdep_u32((1u << left) - 1, want));
-      if (m == 0) return 0;
-      h[g].w = V{_mm512_mask_expandloadu_pd(h[g].w.raw, m, qh[0] + taken_)};
-      h[g].x = V{_mm512_mask_expandloadu_pd(h[g].x.raw, m, qh[1] + taken_)};
-      h[g].y = V{_mm512_mask_expandloadu_pd(h[g].y.raw, m, qh[2] + taken_)};
-      h[g].z = V{_mm512_mask_expandloadu_pd(h[g].z.raw, m, qh[3] + taken_)};
-      if (kAdd == 2) {
-        c[g].w = V{_mm512_mask_expandloadu_pd(c[g].w.raw, m, qc[0] + taken_)};
-        c[g].x = V{_mm512_mask_expandloadu_pd(c[g].x.raw, m, qc[1] + taken_)};
-        c[g].y = V{_mm512_mask_expandloadu_pd(c[g].y.raw, m, qc[2] + taken_)};
-        c[g].z = V{_mm512_mask_expandloadu_pd(c[g].z.raw, m, qc[3] + taken_)};
+      __mmask8 filled = 0;
+      while (want != 0 && next < n) {
+        __mmask8 m = want;
+        if (static_cast<std::size_t>(__builtin_popcount(want)) > n - next)
+          m = static_cast<__mmask8>(_pdep_u32((1u << (n - next)) - 1, want));
+        const V vx{_mm512_maskz_expandloadu_pd(m, x + next)};
+        const V vy{_mm512_maskz_expandloadu_pd(m, y + next)};
+        const V vz{_mm512_maskz_expandloadu_pd(m, z + next)};
+        const V id{_mm512_maskz_expand_pd(m, hn::Add(iota, hn::Set(d, double(next))).raw)};
+        next += static_cast<std::size_t>(__builtin_popcount(m));
+        auto comp = [&](V ow, V a, V b, V cz) {
+          return hn::MulAdd(vz, cz, hn::MulAdd(vy, b, hn::MulAdd(vx, a, ow)));
+        };
+        const Q q = {comp(o.w, d0.w, d1.w, d2.w), comp(o.x, d0.x, d1.x, d2.x),
+                     comp(o.y, d0.y, d1.y, d2.y), comp(o.z, d0.z, d1.z, d2.z)};
+        const Q h0 = s_->mandelbrot ? start : q;
+        __mmask8 ok = m;
+        V p = inf;  // cut-off: no step before the first
+        if (kEscape) {
+          p = norm2(h0);
+          const __mmask8 out = m & hn::Gt(p, r2).raw;
+          if (out != 0) {
+            finished(M{out}, zero, p, p, id);
+            ok &= static_cast<__mmask8>(~out);
+          }
+        }
+        h[g] = {V{_mm512_mask_mov_pd(h[g].w.raw, ok, h0.w.raw)},
+                V{_mm512_mask_mov_pd(h[g].x.raw, ok, h0.x.raw)},
+                V{_mm512_mask_mov_pd(h[g].y.raw, ok, h0.y.raw)},
+                V{_mm512_mask_mov_pd(h[g].z.raw, ok, h0.z.raw)}};
+        if (kAdd == 2)
+          c[g] = {V{_mm512_mask_mov_pd(c[g].w.raw, ok, q.w.raw)},
+                  V{_mm512_mask_mov_pd(c[g].x.raw, ok, q.x.raw)},
+                  V{_mm512_mask_mov_pd(c[g].y.raw, ok, q.y.raw)},
+                  V{_mm512_mask_mov_pd(c[g].z.raw, ok, q.z.raw)}};
+        prev[g] = V{_mm512_mask_mov_pd(prev[g].raw, ok, p.raw)};
+        ext[g] = V{_mm512_mask_mov_pd(ext[g].raw, ok, p.raw)};
+        idx[g] = V{_mm512_mask_mov_pd(idx[g].raw, ok, id.raw)};
+        k[g] = V{_mm512_mask_mov_pd(k[g].raw, ok, zero.raw)};
+        filled |= ok;
+        want &= static_cast<__mmask8>(~ok);
       }
-      prev[g] = V{_mm512_mask_expandloadu_pd(prev[g].raw, m, qprev_.data() + taken_)};
-      ext[g] = V{_mm512_mask_expandloadu_pd(ext[g].raw, m, qprev_.data() + taken_)};
-      idx[g] = V{_mm512_mask_expandloadu_pd(idx[g].raw, m, qidx_.data() + taken_)};
-      k[g] = V{_mm512_mask_mov_pd(k[g].raw, m, zero.raw)};
-      taken_ += static_cast<std::size_t>(__builtin_popcount(m));
-      return m;
+      return filled;
     };
     // What a decided lane leaves for F is captured by masked stores (no branch per step) into
-    // cap_code_, cap_a_ and cap_b_: members, not a stack array, whose offset from the queue
+    // cap_code_, cap_a_ and cap_b_: members, not a stack array, whose offset from the heap
     // changes with each process's stack and at some offsets made the masked stores and the
-    // queue's loads alias (4 KiB apart), a third of the kernel's speed lost in those processes.
+    // loads of the points alias (4 KiB apart), a third of the kernel's speed lost there.
     __mmask8 pending[kGroup];  // lanes decided since their last refill
     for (std::size_t g = 0; g < kGroup; ++g) {
       h[g] = c[g] = {zero, zero, zero, zero};
@@ -823,7 +850,9 @@ class Machine {
   }
 #else
   template <int kAdd, bool kEscape>
-  HWY_NOINLINE void run_single_op() {
+  HWY_NOINLINE void run_single_op(const double* x, const double* y, const double* z,
+                                  std::size_t n) {
+    queue(x, y, z, n);
     start();
     constexpr std::size_t kGroup = 4;
     constexpr int kRun = 64;
