@@ -77,6 +77,59 @@ TEST(AtomicFile, TemporaryNamesAreExclusiveAndALinkToAFileIsReplacedNotFollowed)
   EXPECT_EQ(dir.names(), (std::vector<std::string>{"link.txt", "target.txt"}));
 }
 
+// Bytes of a large file in pieces of odd sizes: the writer stages blocks of 16 MiB, writes
+// full ones past the page cache where the file system allows it, and the rest through it.
+std::string big_bytes(std::size_t size) {
+  std::string s(size, '\0');
+  std::mt19937_64 rng(size);
+  for (char& c : s) c = static_cast<char>(rng());
+  return s;
+}
+
+void write_in_pieces(qjulia::AtomicFile& f, const std::string& bytes) {
+  std::mt19937 rng(7);
+  for (std::size_t at = 0; at < bytes.size();) {
+    const std::size_t n = std::min<std::size_t>(bytes.size() - at, 1 + rng() % (5u << 20));
+    f.write(bytes.data() + at, n);
+    at += n;
+  }
+}
+
+TEST(AtomicFile, ALargeFileHoldsExactlyItsBytesOnDiskAndOnATmpfs) {
+  TempDir dir;
+  Tmpfs disk("80m");
+  ASSERT_TRUE(disk.mounted());
+  // Below one block, exactly three blocks, and three blocks and a partial one.
+  for (const std::size_t size :
+       {std::size_t(100000), std::size_t(48) << 20, (std::size_t(48) << 20) + 12345}) {
+    const std::string bytes = big_bytes(size);
+    for (const std::string& path : {dir.file("big.bin"), disk.file("big.bin")}) {
+      qjulia::AtomicFile f(path);
+      write_in_pieces(f, bytes);
+      f.commit();
+      EXPECT_TRUE(read_bytes(path) == bytes) << path << ", " << size << " bytes";
+      fs::remove(path);
+    }
+  }
+}
+
+TEST(AtomicFile, ADiskThatFillsAfterTheFirstBlocksIsARuntimeErrorAndLeavesNoFile) {
+  Tmpfs disk("40m");
+  ASSERT_TRUE(disk.mounted());
+  const std::string path = disk.file("big.bin");
+  try {
+    qjulia::AtomicFile f(path);
+    write_in_pieces(f, big_bytes(std::size_t(60) << 20));
+    f.commit();
+    ADD_FAILURE() << "written: " << path;
+  } catch (const InvalidInput& e) {
+    ADD_FAILURE() << "a full disk is not bad input: " << e.what();
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()), path + ": write failed (No space left on device)");
+  }
+  EXPECT_TRUE(disk.dir().names().empty()) << disk.dir().names().front();
+}
+
 TEST(AtomicFile, AFullDiskIsARuntimeErrorAndLeavesNoTemporaryFile) {
   Tmpfs disk("64k");
   ASSERT_TRUE(disk.mounted());

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <stdexcept>
 
@@ -16,6 +17,7 @@ namespace qjulia {
 namespace {
 
 constexpr std::size_t kBlock = std::size_t(1) << 24;  // bytes per write() between checks
+constexpr std::size_t kAlign = 4096;  // what O_DIRECT needs of buffers, sizes and offsets
 
 std::string errno_text(int err) { return std::strerror(err); }
 
@@ -104,23 +106,79 @@ void AtomicFile::check_open() const {
   if (fd_ < 0) throw std::logic_error("AtomicFile: write after close");
 }
 
+void AtomicFile::FreeStage::operator()(char* p) const { std::free(p); }
+
+// Big files skip the page cache: copying 250 MB into it and flushing it with fsync() took about
+// twice as long as writing it directly on the project machine. The data is staged in aligned
+// blocks of kBlock, written directly once a block is full; the last, partial block is written
+// through the page cache. File systems that refuse O_DIRECT (fcntl or the first write fails
+// with EINVAL) are written through the page cache throughout.
 void AtomicFile::write(const void* data, std::size_t size) {
   check_open();
   const char* p = static_cast<const char*>(data);
   while (size > 0) {
     throw_if_cancelled(cancel_);
-    const ssize_t n = ::write(fd_, p, std::min(size, kBlock));
+    if (!stage_) {
+      stage_.reset(static_cast<char*>(std::aligned_alloc(kAlign, kBlock)));
+      if (!stage_) throw std::bad_alloc();
+    }
+    const std::size_t n = std::min(size, kBlock - staged_);
+    std::memcpy(stage_.get() + staged_, p, n);
+    staged_ += n;
+    p += n;
+    size -= n;
+    if (staged_ == kBlock) flush_stage(false);
+  }
+}
+
+void AtomicFile::flush_stage(bool last) {
+  if (staged_ == 0) return;
+  if (!last && !direct_tried_) {
+    direct_tried_ = true;
+    const int flags = ::fcntl(fd_, F_GETFL);
+    direct_ = flags >= 0 && ::fcntl(fd_, F_SETFL, flags | O_DIRECT) == 0;
+  }
+  // Whole aligned blocks directly; a last partial one through the page cache.
+  const std::size_t head = direct_ ? staged_ / kAlign * kAlign : 0;
+  if (head > 0) write_out(stage_.get(), head);
+  if (staged_ > head) {
+    if (direct_) {
+      direct_ = false;
+      const int flags = ::fcntl(fd_, F_GETFL);
+      if (flags < 0 || ::fcntl(fd_, F_SETFL, flags & ~O_DIRECT) != 0)
+        throw std::runtime_error(final_path_ + ": write failed (" + errno_text(errno) + ")");
+    }
+    write_out(stage_.get() + head, staged_ - head);
+  }
+  staged_ = 0;
+}
+
+void AtomicFile::write_out(const char* p, std::size_t size) {
+  while (size > 0) {
+    const ssize_t n = ::write(fd_, p, size);
     if (n < 0) {
       if (errno == EINTR) continue;
+      if (errno == EINVAL && direct_) {  // the file system refuses direct writes after all
+        direct_ = false;
+        const int flags = ::fcntl(fd_, F_GETFL);
+        if (flags >= 0 && ::fcntl(fd_, F_SETFL, flags & ~O_DIRECT) == 0) continue;
+      }
       throw std::runtime_error(final_path_ + ": write failed (" + errno_text(errno) + ")");
     }
     p += n;
     size -= static_cast<std::size_t>(n);
+    if (direct_ && size > 0 && (n % kAlign != 0)) {  // a short direct write: go on buffered
+      direct_ = false;
+      const int flags = ::fcntl(fd_, F_GETFL);
+      if (flags < 0 || ::fcntl(fd_, F_SETFL, flags & ~O_DIRECT) != 0)
+        throw std::runtime_error(final_path_ + ": write failed (" + errno_text(errno) + ")");
+    }
   }
 }
 
 void AtomicFile::close_for_external() {
   if (fd_ >= 0) {
+    flush_stage(true);
     ::close(fd_);
     fd_ = -1;
   }
@@ -128,6 +186,7 @@ void AtomicFile::close_for_external() {
 
 void AtomicFile::commit() {
   throw_if_cancelled(cancel_);
+  if (fd_ >= 0) flush_stage(true);
   // fsync before the rename: the name must never point at data still in the page cache only.
   // It also reports a full disk on file systems that allocate late.
   int fd = fd_;

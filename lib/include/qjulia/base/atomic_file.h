@@ -3,6 +3,7 @@
 /// Write-to-temporary-then-rename, so a final file name never holds a half-written file. The
 /// one writer of every output file of the library and the CLI.
 #include <cstddef>
+#include <memory>
 #include <string>
 
 #include "qjulia/base/progress.h"
@@ -54,12 +55,22 @@ class AtomicFile {
   const std::string& final_path() const { return final_path_; }
 
  private:
+  struct FreeStage {
+    void operator()(char* p) const;
+  };
   void check_open() const;
+  void write_out(const char* p, std::size_t size);
+  void flush_stage(bool last);
   std::string final_path_;
   std::string temp_path_;
   const CancelToken* cancel_ = nullptr;
   int fd_ = -1;
   bool committed_ = false;
+  // Writes go through an aligned stage of 16 MiB; from the first full stage on, they bypass
+  // the page cache (O_DIRECT) where the file system allows it.
+  std::unique_ptr<char, FreeStage> stage_;
+  std::size_t staged_ = 0;
+  bool direct_ = false, direct_tried_ = false;
 };
 
 /// A growing byte buffer for text output that flushes to an AtomicFile in big blocks.
