@@ -68,13 +68,14 @@ class TempDir {
 
 /// A tmpfs of `size` (mount(8) syntax: "64k") mounted on a fresh directory; unmounted at the
 /// end. Mounting needs root, which the tests have: a failure fails the test, it never skips.
+/// `type` "ramfs" mounts a ramfs instead (no size limit; it refuses O_DIRECT).
 class Tmpfs {
  public:
-  explicit Tmpfs(const std::string& size) : dir_("tmpfs") {
+  explicit Tmpfs(const std::string& size, const std::string& type = "tmpfs") : dir_("tmpfs") {
     const std::string options = "size=" + size + ",mode=0755";
-    if (::mount("tmpfs", dir_.path().c_str(), "tmpfs", 0, options.c_str()) != 0) {
-      ADD_FAILURE() << "cannot mount a tmpfs on " << dir_.path() << ": " << std::strerror(errno)
-                    << " (the io fault tests run as root)";
+    if (::mount(type.c_str(), dir_.path().c_str(), type.c_str(), 0, options.c_str()) != 0) {
+      ADD_FAILURE() << "cannot mount a " << type << " on " << dir_.path() << ": "
+                    << std::strerror(errno) << " (the io fault tests run as root)";
     } else {
       mounted_ = true;
     }
