@@ -135,22 +135,28 @@ void AtomicFile::flush_stage(bool last) {
   if (staged_ == 0) return;
   if (!last && !direct_tried_) {
     direct_tried_ = true;
-    const int flags = ::fcntl(fd_, F_GETFL);
-    direct_ = flags >= 0 && ::fcntl(fd_, F_SETFL, flags | O_DIRECT) == 0;
+    direct_ = set_direct(true);
   }
   // Whole aligned blocks directly; a last partial one through the page cache.
   const std::size_t head = direct_ ? staged_ / kAlign * kAlign : 0;
   if (head > 0) write_out(stage_.get(), head);
   if (staged_ > head) {
-    if (direct_) {
-      direct_ = false;
-      const int flags = ::fcntl(fd_, F_GETFL);
-      if (flags < 0 || ::fcntl(fd_, F_SETFL, flags & ~O_DIRECT) != 0)
-        throw std::runtime_error(final_path_ + ": write failed (" + errno_text(errno) + ")");
-    }
+    buffered();
     write_out(stage_.get() + head, staged_ - head);
   }
   staged_ = 0;
+}
+
+bool AtomicFile::set_direct(bool on) {
+  const int flags = ::fcntl(fd_, F_GETFL);
+  return flags >= 0 && ::fcntl(fd_, F_SETFL, on ? flags | O_DIRECT : flags & ~O_DIRECT) == 0;
+}
+
+void AtomicFile::buffered() {
+  if (!direct_) return;
+  direct_ = false;
+  if (!set_direct(false))
+    throw std::runtime_error(final_path_ + ": write failed (" + errno_text(errno) + ")");
 }
 
 void AtomicFile::write_out(const char* p, std::size_t size) {
@@ -159,20 +165,14 @@ void AtomicFile::write_out(const char* p, std::size_t size) {
     if (n < 0) {
       if (errno == EINTR) continue;
       if (errno == EINVAL && direct_) {  // the file system refuses direct writes after all
-        direct_ = false;
-        const int flags = ::fcntl(fd_, F_GETFL);
-        if (flags >= 0 && ::fcntl(fd_, F_SETFL, flags & ~O_DIRECT) == 0) continue;
+        buffered();
+        continue;
       }
       throw std::runtime_error(final_path_ + ": write failed (" + errno_text(errno) + ")");
     }
     p += n;
     size -= static_cast<std::size_t>(n);
-    if (direct_ && size > 0 && (n % kAlign != 0)) {  // a short direct write: go on buffered
-      direct_ = false;
-      const int flags = ::fcntl(fd_, F_GETFL);
-      if (flags < 0 || ::fcntl(fd_, F_SETFL, flags & ~O_DIRECT) != 0)
-        throw std::runtime_error(final_path_ + ": write failed (" + errno_text(errno) + ")");
-    }
+    if (direct_ && size > 0 && n % kAlign != 0) buffered();  // a short direct write
   }
 }
 

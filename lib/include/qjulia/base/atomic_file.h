@@ -60,6 +60,8 @@ class AtomicFile {
   };
   void check_open() const;
   void write_out(const char* p, std::size_t size);
+  bool set_direct(bool on);  // O_DIRECT on or off; false when fcntl fails
+  void buffered();           // the rest through the page cache (O_DIRECT off)
   void flush_stage(bool last);
   std::string final_path_;
   std::string temp_path_;
