@@ -92,6 +92,15 @@ HWY_INLINE Q sqr(const Q& a) {
 }
 HWY_INLINE V reciprocal(V x);
 
+// The point of slice coordinates (x, y, z): origin + x d0 + y d1 + z d2.
+HWY_INLINE Q slice_point(V x, V y, V z, const Q& o, const Q& d0, const Q& d1, const Q& d2) {
+  auto comp = [&](V ow, V a, V b, V c) {
+    return hn::MulAdd(z, c, hn::MulAdd(y, b, hn::MulAdd(x, a, ow)));
+  };
+  return {comp(o.w, d0.w, d1.w, d2.w), comp(o.x, d0.x, d1.x, d2.x), comp(o.y, d0.y, d1.y, d2.y),
+          comp(o.z, d0.z, d1.z, d2.z)};
+}
+
 // The metric of the step from h to q and whether the orbit leaves there: escape, |q|^2 > R^2
 // (NaN and inf leave too); cut-off, |q - h|^2 < r^2 (converged), or a pole or an overflow (a
 // large step that never converges).
@@ -567,11 +576,7 @@ class Machine {
         vy = hn::Load(d, by);
         vz = hn::Load(d, bz);
       }
-      auto comp = [&](V ow, V a, V b, V c) {
-        return hn::MulAdd(vz, c, hn::MulAdd(vy, b, hn::MulAdd(vx, a, ow)));
-      };
-      const Q q = {comp(o.w, d0.w, d1.w, d2.w), comp(o.x, d0.x, d1.x, d2.x),
-                   comp(o.y, d0.y, d1.y, d2.y), comp(o.z, d0.z, d1.z, d2.z)};
+      const Q q = slice_point(vx, vy, vz, o, d0, d1, d2);
       const Q h = s_->mandelbrot ? start : q;
       const V idx = hn::Add(iota, hn::Set(d, static_cast<double>(i)));
       M valid = hn::FirstN(d, m);
@@ -761,11 +766,7 @@ class Machine {
         const V vz{_mm512_maskz_expandloadu_pd(m, z + next)};
         const V id{_mm512_maskz_expand_pd(m, hn::Add(iota, hn::Set(d, double(next))).raw)};
         next += static_cast<std::size_t>(__builtin_popcount(m));
-        auto comp = [&](V ow, V a, V b, V cz) {
-          return hn::MulAdd(vz, cz, hn::MulAdd(vy, b, hn::MulAdd(vx, a, ow)));
-        };
-        const Q q = {comp(o.w, d0.w, d1.w, d2.w), comp(o.x, d0.x, d1.x, d2.x),
-                     comp(o.y, d0.y, d1.y, d2.y), comp(o.z, d0.z, d1.z, d2.z)};
+        const Q q = slice_point(vx, vy, vz, o, d0, d1, d2);
         const Q h0 = s_->mandelbrot ? start : q;
         __mmask8 ok = m;
         V p = inf;  // cut-off: no step before the first
