@@ -14,6 +14,7 @@
 #include <cstring>
 #include <limits>
 #include <memory>
+#include <utility>
 #include <vector>
 
 #include "field/quat_functions.h"
@@ -124,6 +125,13 @@ HWY_INLINE V exit_code(M exit, V k, V metric) {
   const V code = hn::IfThenElse(exit, k, hn::Set(d, -1.0));
   if (kEscape) return code;
   return hn::IfThenElse(hn::IsFinite(metric), code, hn::Set(d, -2.0));
+}
+
+// Calls f(std::integral_constant<std::size_t, I>()) for each I: loops over register groups
+// with compile-time indices, so the groups' arrays can live in registers.
+template <std::size_t... I, class F>
+HWY_INLINE void each_group(std::index_sequence<I...>, F&& f) {
+  (f(std::integral_constant<std::size_t, I>()), ...);
 }
 
 // One step of a single-operation map: h^2, plus the literal (kAdd 1), c (2) or the literal's
@@ -726,10 +734,14 @@ class Machine {
 
 #if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
   // AVX-512: every orbit's state stays in registers for the whole batch. The steps run without
-  // a branch on the data (a lane that decides stores what F needs with masked stores and
-  // idles); every kSteps steps, a vector in which kRefillAt lanes wait sends its decided
-  // orbits to the finished buffer (compressing stores) and takes the next waiting points
-  // (expanding loads). A data-dependent branch at every step cost more than the idle lanes.
+  // a branch on the data: a lane that decides freezes (its step count, metrics and extreme
+  // take masked updates) and idles; every kSteps steps, a vector in which kRefillAt lanes wait
+  // sends its decided orbits to the finished buffer (compressing stores) and takes the next
+  // waiting points (expanding loads). A data-dependent branch at every step cost more than the
+  // idle lanes. Every group index is a compile-time constant (each_group), so the groups' state
+  // lives in registers: state kept in stack arrays was stored at every step, and those stores
+  // aliased (4 KiB apart) the loads of the points at some stack offsets, which made the speed
+  // of a process depend on the size of its environment.
   template <int kAdd, bool kEscape>
   HWY_NOINLINE void run_single_op(const double* x, const double* y, const double* z,
                                   std::size_t n) {
@@ -741,35 +753,41 @@ class Machine {
     const Q lit = broadcast(op.add_lit);
     const V r2 = hn::Set(d, s_->r2), iters = hn::Set(d, s_->iterations), one = hn::Set(d, 1.0);
     const V zero = hn::Zero(d);
+    // Per group: h (and c), the steps taken k, the last metric a and the one before, the
+    // extreme; masks of the lanes still running, decided since their last refill, and left.
     Q h[kGroup], c[kGroup];
-    V prev[kGroup], k[kGroup], idx[kGroup], ext[kGroup];
-    __mmask8 live[kGroup];
-    // The points straight from the slice, without the queue: a[g], b[g] are x, y, z of the
-    // points into h (and c in Mandelbrot mode) as queue() computes them.
-    const Q o = broadcast(s_->origin), d0 = broadcast(s_->dir[0]), d1 = broadcast(s_->dir[1]),
-            d2 = broadcast(s_->dir[2]), start = broadcast(s_->start);
+    V k[kGroup], a[kGroup], prev[kGroup], ext[kGroup];
+    __mmask8 live[kGroup], pending[kGroup], left[kGroup];
+    // The points straight from the slice, without the queue, as queue() computes them; each
+    // lane's point index waits in idx_ (read only when the lane's orbit is finished). The
+    // slice's constants are read at each refill, not held in registers the steps need.
     HWY_ALIGN static constexpr double kIota[8] = {0, 1, 2, 3, 4, 5, 6, 7};
-    const V iota = hn::Load(d, kIota);
-    const V inf = hn::Set(d, std::numeric_limits<double>::infinity());
     std::size_t next = 0;  // the next point of the slice
     // Loads the next points into the lanes of `want` (as many as are left); an escape orbit that
     // starts outside the ball has decided at step 0 and goes straight to the finished ones, its
     // lane taking the point after. Returns the lanes filled.
-    auto load = [&](std::size_t g, __mmask8 want) -> __mmask8 {
+    auto load = [&](auto group, __mmask8 want) __attribute__((always_inline))->__mmask8 {
+      constexpr std::size_t g = decltype(group)::value;
       __mmask8 filled = 0;
       while (want != 0 && next < n) {
         __mmask8 m = want;
         if (static_cast<std::size_t>(__builtin_popcount(want)) > n - next)
           m = static_cast<__mmask8>(_pdep_u32((1u << (n - next)) - 1, want));
-        const V vx{_mm512_maskz_expandloadu_pd(m, x + next)};
-        const V vy{_mm512_maskz_expandloadu_pd(m, y + next)};
-        const V vz{_mm512_maskz_expandloadu_pd(m, z + next)};
-        const V id{_mm512_maskz_expand_pd(m, hn::Add(iota, hn::Set(d, double(next))).raw)};
-        next += static_cast<std::size_t>(__builtin_popcount(m));
-        const Q q = slice_point(vx, vy, vz, o, d0, d1, d2);
-        const Q h0 = s_->mandelbrot ? start : q;
+        // Contiguous masked loads, then expansion in registers (expanding loads from memory
+        // are slow on some CPUs).
+        const unsigned count = static_cast<unsigned>(__builtin_popcount(m));
+        const __mmask8 first = static_cast<__mmask8>((1u << count) - 1);
+        const V vx{_mm512_maskz_expand_pd(m, _mm512_maskz_loadu_pd(first, x + next))};
+        const V vy{_mm512_maskz_expand_pd(m, _mm512_maskz_loadu_pd(first, y + next))};
+        const V vz{_mm512_maskz_expand_pd(m, _mm512_maskz_loadu_pd(first, z + next))};
+        const V id{
+            _mm512_maskz_expand_pd(m, hn::Add(hn::Load(d, kIota), hn::Set(d, double(next))).raw)};
+        next += count;
+        const Q q = slice_point(vx, vy, vz, broadcast(s_->origin), broadcast(s_->dir[0]),
+                                broadcast(s_->dir[1]), broadcast(s_->dir[2]));
+        const Q h0 = s_->mandelbrot ? broadcast(s_->start) : q;
         __mmask8 ok = m;
-        V p = inf;  // cut-off: no step before the first
+        V p = hn::Set(d, std::numeric_limits<double>::infinity());  // cut-off: no step before
         if (kEscape) {
           p = norm2(h0);
           const __mmask8 out = m & hn::Gt(p, r2).raw;
@@ -787,64 +805,64 @@ class Machine {
                   V{_mm512_mask_mov_pd(c[g].x.raw, ok, q.x.raw)},
                   V{_mm512_mask_mov_pd(c[g].y.raw, ok, q.y.raw)},
                   V{_mm512_mask_mov_pd(c[g].z.raw, ok, q.z.raw)}};
-        prev[g] = V{_mm512_mask_mov_pd(prev[g].raw, ok, p.raw)};
+        a[g] = V{_mm512_mask_mov_pd(a[g].raw, ok, p.raw)};
         ext[g] = V{_mm512_mask_mov_pd(ext[g].raw, ok, p.raw)};
-        idx[g] = V{_mm512_mask_mov_pd(idx[g].raw, ok, id.raw)};
         k[g] = V{_mm512_mask_mov_pd(k[g].raw, ok, zero.raw)};
+        _mm512_mask_store_pd(idx_ + 8 * g, ok, id.raw);
         filled |= ok;
         want &= static_cast<__mmask8>(~ok);
       }
       return filled;
     };
-    // What a decided lane leaves for F is captured by masked stores (no branch per step) into
-    // cap_code_, cap_a_ and cap_b_: members, not a stack array, whose offset from the heap
-    // changes with each process's stack and at some offsets made the masked stores and the
-    // loads of the points alias (4 KiB apart), a third of the kernel's speed lost there.
-    __mmask8 pending[kGroup];  // lanes decided since their last refill
-    for (std::size_t g = 0; g < kGroup; ++g) {
+    auto each = [&](auto&& f) __attribute__((always_inline)) {
+      each_group(std::make_index_sequence<kGroup>{}, f);
+    };
+    each([&](auto group) __attribute__((always_inline)) {
+      constexpr std::size_t g = decltype(group)::value;
       h[g] = c[g] = {zero, zero, zero, zero};
-      prev[g] = k[g] = idx[g] = ext[g] = zero;
-      pending[g] = 0;
-      live[g] = load(g, 0xff);
-    }
+      k[g] = a[g] = prev[g] = ext[g] = zero;
+      pending[g] = left[g] = 0;
+      live[g] = load(group, 0xff);
+    });
     for (;;) {
-      // kSteps steps of every vector, without a branch on the data: a lane that decides
-      // stores its code and metrics, then idles on zeros.
+      // kSteps steps of every vector, without a branch on the data.
       for (int step = 0; step < kSteps; ++step) {
-#pragma GCC unroll 4
-        for (std::size_t g = 0; g < kGroup; ++g) {
+        each([&](auto group) __attribute__((always_inline)) {
+          constexpr std::size_t g = decltype(group)::value;
           V metric;
           M exit;
+          const __mmask8 run = live[g];
           const Q q = single_op_step<kAdd, kEscape>(h[g], c[g], lit, r2, metric, exit);
-          k[g] = hn::Add(k[g], one);
-          ext[g] = kEscape ? hn::Max(ext[g], metric) : hn::Min(ext[g], metric);
-          const __mmask8 now = live[g] & hn::Or(exit, hn::Eq(k[g], iters)).raw;
-          const V code = exit_code<kEscape>(exit, k[g], metric);
-          _mm512_mask_store_pd(cap_code_ + 8 * g, now, code.raw);
-          _mm512_mask_store_pd(cap_a_ + 8 * g, now, metric.raw);
-          _mm512_mask_store_pd(cap_b_ + 8 * g, now, second(code, prev[g], ext[g]).raw);
-          live[g] &= static_cast<__mmask8>(~now);
+          k[g] = V{_mm512_mask_add_pd(k[g].raw, run, k[g].raw, one.raw)};
+          ext[g] = V{kEscape ? _mm512_mask_max_pd(ext[g].raw, run, ext[g].raw, metric.raw)
+                             : _mm512_mask_min_pd(ext[g].raw, run, ext[g].raw, metric.raw)};
+          prev[g] = V{_mm512_mask_mov_pd(prev[g].raw, run, a[g].raw)};
+          a[g] = V{_mm512_mask_mov_pd(a[g].raw, run, metric.raw)};
+          const __mmask8 now = run & hn::Or(exit, hn::Eq(k[g], iters)).raw;
+          left[g] |= now & exit.raw;
+          live[g] = run & static_cast<__mmask8>(~now);
           pending[g] |= now;
           h[g] = {V{_mm512_mask_mov_pd(q.w.raw, now, zero.raw)},
                   V{_mm512_mask_mov_pd(q.x.raw, now, zero.raw)},
                   V{_mm512_mask_mov_pd(q.y.raw, now, zero.raw)},
                   V{_mm512_mask_mov_pd(q.z.raw, now, zero.raw)}};
-          prev[g] = metric;
-        }
+        });
       }
       // Decided lanes to the finished orbits; refilled once enough of a vector waits.
       bool any = false;
-      for (std::size_t g = 0; g < kGroup; ++g) {
+      each([&](auto group) __attribute__((always_inline)) {
+        constexpr std::size_t g = decltype(group)::value;
         const __mmask8 waiting = static_cast<__mmask8>(~live[g]);
         if (pending[g] && (__builtin_popcount(waiting) >= kRefillAt || live[g] == 0)) {
           const M m{pending[g]};
-          finished(m, hn::Load(d, cap_code_ + 8 * g), hn::Load(d, cap_a_ + 8 * g),
-                   hn::Load(d, cap_b_ + 8 * g), idx[g]);
+          const V code = exit_code<kEscape>(M{left[g]}, k[g], a[g]);
+          finished(m, code, a[g], second(code, prev[g], ext[g]), hn::Load(d, idx_ + 8 * g));
           pending[g] = 0;
-          live[g] |= load(g, waiting);
+          left[g] = 0;
+          live[g] |= load(group, waiting);
         }
         any = any || live[g] != 0;
-      }
+      });
       if (!any) break;
     }
     live_ = 0;
