@@ -980,8 +980,12 @@ class Machine {
     const V g = hn::Set(d, static_cast<double>(sweeps_));
     if (queued_ - taken_ >= want) {
       const __mmask8 m = done.raw;
+      // A contiguous masked load expanded in registers (the memory form of the expanding load
+      // is slow on some CPUs).
+      const __mmask8 first = static_cast<__mmask8>((1u << want) - 1);
       auto expand = [&](const double* src, double* dst) {
-        _mm512_store_pd(dst, _mm512_mask_expandloadu_pd(_mm512_load_pd(dst), m, src + taken_));
+        _mm512_store_pd(dst, _mm512_mask_expand_pd(_mm512_load_pd(dst), m,
+                                                   _mm512_maskz_loadu_pd(first, src + taken_)));
       };
       for (int c = 0; c < 4; ++c) {
         expand(qh_[c].data(), h.c[c] + o);
