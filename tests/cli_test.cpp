@@ -616,5 +616,42 @@ TEST_F(Cli, AParameterFileNumberBeyondItsRangeNamesTheKeyAndTheRange) {
   expect_rejected("params p.json", "not valid JSON", {"p.json"});
 }
 
+// OpenVDB (its module) is loaded only by a run that writes a grid or thickens: the dynamic
+// loader's own log (LD_DEBUG=files) names every shared object a process loads.
+TEST_F(Cli, OpenVdbIsLoadedOnlyWhenARunNeedsIt) {
+  const CliRun plain = run("mesh --resolution 24 -o a.ply --quiet", "export LD_DEBUG=files");
+  ASSERT_EQ(plain.code, 0) << plain.err;
+  EXPECT_EQ(plain.err.find("libopenvdb"), std::string::npos);
+  EXPECT_EQ(plain.err.find("libqjulia_vdb"), std::string::npos);
+  const CliRun grid =
+      run("mesh --resolution 24 -o b.ply --vdb b.vdb --quiet", "export LD_DEBUG=files");
+  ASSERT_EQ(grid.code, 0) << grid.err;
+  EXPECT_NE(grid.err.find("libqjulia_vdb.so"), std::string::npos);
+  EXPECT_NE(grid.err.find("libopenvdb"), std::string::npos);
+  const std::string vdb = read_text(work_ / "b.vdb");
+  ASSERT_GE(vdb.size(), 8u);
+  EXPECT_EQ(vdb.substr(0, 4), std::string(" BDV", 4));  // OpenVDB's magic number, 0x56444220
+}
+
+// A run that needs OpenVDB's module and cannot load it stops before the work, says where it
+// looked, and writes nothing; a run that does not need it is not affected.
+TEST_F(Cli, AMissingOpenVdbModuleStopsTheRunsThatNeedItBeforeTheWork) {
+  const std::string missing = "export QJULIA_VDB_MODULE=/nonexistent/libqjulia_vdb.so";
+  for (const std::string& args : {std::string("mesh --resolution 24 -o a.ply --vdb a.vdb"),
+                                  std::string("mesh --resolution 24 -o a.stl --size 40mm "
+                                              "--min-thickness 2mm")}) {
+    SCOPED_TRACE(args);
+    const CliRun r = run(args + " --quiet", missing);
+    EXPECT_NE(r.code, 0);
+    EXPECT_NE(r.err.find("/nonexistent/libqjulia_vdb.so"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("QJULIA_VDB_MODULE"), std::string::npos) << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line, got: " << r.err;
+    EXPECT_EQ(files(), std::vector<std::string>{});
+  }
+  const CliRun plain = run("mesh --resolution 24 -o a.ply --quiet", missing);
+  EXPECT_EQ(plain.code, 0) << plain.err;
+  EXPECT_EQ(files(), std::vector<std::string>{"a.ply"});
+}
+
 }  // namespace
 }  // namespace qjulia

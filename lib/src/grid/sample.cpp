@@ -1,27 +1,17 @@
 #include "qjulia/grid/sample.h"
 
-#include <openvdb/io/File.h>
-#include <openvdb/openvdb.h>
-#include <openvdb/tools/Composite.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <mutex>
 #include <stdexcept>
 
 #include "grid/grid_impl.h"
 #include "qjulia/base/atomic_file.h"
 #include "qjulia/base/error.h"
 #include "qjulia/field/classify.h"
+#include "base/vdb_module.h"
 
 namespace qjulia {
-namespace {
-
-std::once_flag g_openvdb_init;
-
-}  // namespace
-
 SampledGrid::SampledGrid() : impl_(std::make_unique<Impl>()) {}
 SampledGrid::~SampledGrid() = default;
 SampledGrid::SampledGrid(SampledGrid&&) noexcept = default;
@@ -72,42 +62,33 @@ std::uint64_t SampledGrid::active_voxels() const {
 }
 
 void SampledGrid::write_vdb(const std::string& path, const std::string& params_json) const {
-  std::call_once(g_openvdb_init, [] { openvdb::initialize(); });
+  const detail::VdbApi& vdb = detail::vdb_api();
   const GridGeometry& geo = impl_->geometry;
-  const float background = static_cast<float>(impl_->params.iterations + 1);
-  auto grid = openvdb::FloatGrid::create(background);
-  {
-    // Uniform interior blocks first, as inactive tiles; the evaluated points then override.
-    constexpr int s = 16;
-    for (const auto& c : impl_->interior)
-      grid->tree().fill(
-          openvdb::CoordBBox(openvdb::Coord(c[0] * s, c[1] * s, c[2] * s),
-                             openvdb::Coord(c[0] * s + s - 1, c[1] * s + s - 1, c[2] * s + s - 1)),
-          -background, false);
-    auto acc = grid->getAccessor();
-    for (const auto& b : impl_->bricks)
-      each_owned_point(*b, geo, [&](int i, int j, int k, float v) {
-        acc.setValueOn(openvdb::Coord(i, j, k), v);
-      });
-  }
-  grid->setName("F");
-  grid->setTransform(openvdb::math::Transform::createLinearTransform(geo.voxel));
-  grid->transform().postTranslate(openvdb::Vec3d(geo.origin[0], geo.origin[1], geo.origin[2]));
-  grid->insertMeta("qjulia_parameters", openvdb::StringMetadata(params_json));
-  grid->insertMeta("qjulia_field",
-                   openvdb::StringMetadata(
-                       "F: continuous escape/cut-off field of the qjulia design; F <= 0 in the "
-                       "solid, > 0 outside; zero level = classification boundary; units: "
-                       "iterations (not a distance). Inactive values: -background inside "
-                       "uniform blocks, background outside."));
-  grid->insertMeta("qjulia_method", openvdb::StringMetadata(to_string(impl_->params.method)));
+  detail::VdbGrid grid;
+  grid.name = "F";
+  grid.voxel = geo.voxel;
+  grid.origin = geo.origin;
+  grid.background = static_cast<float>(impl_->params.iterations + 1);
+  grid.block = 16;
+  grid.interior = impl_->interior;
+  grid.source = this;
+  grid.each_value = [](const void* source, detail::VdbEmit emit, void* sink) {
+    const SampledGrid& self = *static_cast<const SampledGrid*>(source);
+    for (const auto& b : self.impl_->bricks)
+      each_owned_point(*b, self.impl_->geometry,
+                       [&](int i, int j, int k, float v) { emit(sink, i, j, k, v); });
+  };
+  grid.metadata = {
+      {"qjulia_parameters", params_json},
+      {"qjulia_field",
+       "F: continuous escape/cut-off field of the qjulia design; F <= 0 in the solid, > 0 "
+       "outside; zero level = classification boundary; units: iterations (not a distance). "
+       "Inactive values: -background inside uniform blocks, background outside."},
+      {"qjulia_method", to_string(impl_->params.method)}};
   AtomicFile file(path);
   file.close_for_external();
   try {
-    openvdb::io::File out(file.temp_path());
-    openvdb::GridPtrVec grids{grid};
-    out.write(grids);
-    out.close();
+    vdb.write_grid(file.temp_path(), grid);
   } catch (const std::exception& e) {
     throw std::runtime_error(path + ": cannot write the grid: " + e.what());
   }
@@ -120,7 +101,6 @@ SampledGrid sample(const Params& params, const SampleOptions& opts) {
 }
 
 SampledGrid sample(const Solid& solid, const SampleOptions& opts) {
-  std::call_once(g_openvdb_init, [] { openvdb::initialize(); });
   SampledGrid out;
   auto& impl = out.impl();
   impl.params = solid.classifier().params();

@@ -18,6 +18,7 @@
 #include "qjulia/pipeline/distributed.h"
 #include "qjulia/surface/extract.h"
 #include "surface/part.h"
+#include "base/vdb_module.h"
 
 namespace qjulia {
 namespace {
@@ -157,6 +158,8 @@ std::string empty_solid_message(const Params& params) {
 
 PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   const Solid solid(params);  // validates and compiles, once for the whole run
+  // OpenVDB's module, when the run will need it: a missing one stops the run before the work.
+  if (opts.keep_grid || params.print.min_thickness_mm) detail::vdb_api();
   PipelineResult result;
   RunStats& stats = result.stats;
   StageTimer timer(stats, opts.progress, opts.cancel);
