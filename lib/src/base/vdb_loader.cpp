@@ -58,7 +58,8 @@ const VdbApi* load(std::string& error) {
     auto entry = reinterpret_cast<Entry>(::dlsym(handle, "qjulia_vdb_api"));
     const VdbApi* api = entry ? entry() : nullptr;
     if (!api || api->version != kVdbApiVersion) {
-      tried += std::string(tried.empty() ? " " : "; ") + path + ": not this build's module";
+      tried += std::string(tried.empty() ? " " : "; ") + path +
+               ": a module of another interface version";
       ::dlclose(handle);
       continue;
     }

@@ -42,7 +42,8 @@ struct VdbThicken {
   std::function<void(double)> progress;  // 0..1; may throw to stop
 };
 
-/// The module's entry points (kVdbApiVersion guards against a module of another build).
+/// The module's entry points (kVdbApiVersion guards against a module built for another version
+/// of this interface).
 constexpr int kVdbApiVersion = 1;
 struct VdbApi {
   int version = kVdbApiVersion;
