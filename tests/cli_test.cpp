@@ -320,6 +320,44 @@ TEST_F(Cli, BenchPrintsTheKernelAgainstTheReference) {
   EXPECT_TRUE(files().empty()) << "bench writes nothing";
 }
 
+// The kernel's transparent huge page mode, as the bracketed word of its setting ("" if none).
+std::string thp_mode() {
+  const std::string line = read_text("/sys/kernel/mm/transparent_hugepage/enabled");
+  const auto open = line.find('['), close = line.find(']');
+  if (open == std::string::npos || close == std::string::npos || close < open) return "";
+  return line.substr(open + 1, close - open - 1);
+}
+
+TEST_F(Cli, WorkingCommandsRunWithMallocOnHugePagesUnlessTheUserDecides) {
+  // `bench` prints the state the process runs in: in mode madvise the command restarts itself
+  // with glibc's tunable added to those the user set; QJULIA_HUGE_PAGES=0 or a user's own
+  // glibc.malloc.hugetlb keep it as it is.
+  const auto state = [&](const std::string& env) {
+    const CliRun r = run("bench --presets unit-ball --resolutions 16 --threads 1",
+                         env.empty() ? "" : "export " + env);
+    EXPECT_EQ(r.code, 0) << r.err;
+    const std::string key = "malloc on transparent huge pages: ";
+    const auto at = r.out.find(key);
+    if (at == std::string::npos) return std::string("(no line) ") + r.out;
+    return r.out.substr(at + key.size(), r.out.find('\n', at) - at - key.size());
+  };
+  const std::string mode = thp_mode();
+  if (mode == "madvise") {
+    EXPECT_EQ(state(""), "on (GLIBC_TUNABLES glibc.malloc.hugetlb=1)");
+    EXPECT_EQ(state("GLIBC_TUNABLES=glibc.malloc.perturb=0"),
+              "on (GLIBC_TUNABLES glibc.malloc.hugetlb=1)");
+    EXPECT_EQ(state("QJULIA_HUGE_PAGES=0"), "off (QJULIA_HUGE_PAGES=0)");
+    EXPECT_EQ(state("GLIBC_TUNABLES=glibc.malloc.hugetlb=0"),
+              "off (GLIBC_TUNABLES sets glibc.malloc.hugetlb otherwise)");
+  } else if (mode == "always") {
+    EXPECT_EQ(state(""), "on (the kernel's mode is always)");
+  } else if (mode == "never") {
+    EXPECT_EQ(state(""), "off (the kernel's mode is never)");
+  } else {
+    EXPECT_EQ(state(""), "off (the kernel offers no transparent huge pages)");
+  }
+}
+
 TEST_F(Cli, AFileSizeLimitFailsTheWriteNamingTheFileAndLeavesNoFile) {
   // Under `ulimit -f` a write beyond the limit raises SIGXFSZ, which would kill the process
   // with its temporary file left behind; the CLI ignores it, so the write fails with EFBIG.

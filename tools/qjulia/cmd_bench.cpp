@@ -4,6 +4,7 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "huge_pages.h"
 #include "qjulia/base/error.h"
 #include "qjulia/field/kernel_speed.h"
 #include "qjulia/pipeline/pipeline.h"
@@ -50,6 +51,7 @@ int cmd_bench(const Tokens& tokens, const CancelToken& cancel) {
     resolutions.push_back(static_cast<int>(parse_int(r, "--resolutions", kResolutionRange)));
   const ThreadLimit threads(args);
   const int nthreads = threads.threads();
+  std::printf("malloc on transparent huge pages: %s\n", malloc_huge_pages_state().c_str());
   {
     const auto [band, box] = measure_kernel_speed();
     std::printf("kernel of h^2 + c (classic-julia), one core, voxel-iterations per second:\n");

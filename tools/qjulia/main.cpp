@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "commands.h"
+#include "huge_pages.h"
 #include "qjulia/base/error.h"
 #include "qjulia/pipeline/pipeline.h"
 #include "signals.h"
@@ -50,6 +51,14 @@ std::string one_line(const char* text) {
 
 int main(int argc, char** argv) {
   using namespace qjulia::cli;
+  // Commands that do real work restart once with malloc on huge pages (classic-julia at 256 on
+  // one thread: 0.38 s instead of 0.47, at 512 1.53 s instead of 1.60); the quick ones do not.
+  if (argc >= 2) {
+    const std::string first = argv[1];
+    if (first == "mesh" || first == "compare" || first == "render" || first == "experiment" ||
+        first == "bench" || first == "explore")
+      restart_with_malloc_huge_pages(argv);
+  }
   install_signal_handlers();
   const qjulia::CancelToken& cancel = interrupt_token();
   if (argc < 2) {
