@@ -1444,7 +1444,7 @@ struct BrickSampler::Sampling {
     bricks.drain([&](std::unique_ptr<Brick> br) {
       if (br->known.any() && owned(br->at.x)) out.push_back(std::move(br));
     });
-    malloc_trim(0);
+    if (opts.return_free_memory) malloc_trim(0);
     if (dist && ranks > 1) redeal_for_meshing(out, *dist, lowest_plane);
     tbb::parallel_sort(out.begin(), out.end(),
                        [](const std::unique_ptr<Brick>& a, const std::unique_ptr<Brick>& b) {

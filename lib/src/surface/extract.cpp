@@ -543,7 +543,7 @@ struct BrickMesher {
     if (release) {
       impl.bricks.clear();
       impl.bricks.shrink_to_fit();
-      malloc_trim(0);
+      if (opts.return_free_memory) malloc_trim(0);
     }
   }
 
@@ -597,7 +597,7 @@ struct BrickMesher {
       std::vector<std::array<float, 3>>().swap(verts[i].positions);
       std::vector<std::array<float, 3>>().swap(plans[i].centres);
     });
-    malloc_trim(0);
+    if (opts.return_free_memory) malloc_trim(0);
   }
 
   // The part's numbers, the runs of vertices the down rank uses, and the up rank's first plane:
@@ -659,7 +659,7 @@ struct BrickMesher {
     });
     plans.clear();
     plans.shrink_to_fit();
-    malloc_trim(0);  // the plans' cells, freed brick by brick
+    if (opts.return_free_memory) malloc_trim(0);  // the plans' cells, freed brick by brick
   }
 
   // The components of this rank's bricks, numbered after the lower ranks'.
@@ -733,7 +733,7 @@ struct BrickMesher {
     });
     faces.clear();
     faces.shrink_to_fit();
-    malloc_trim(0);  // the many small border lists
+    if (opts.return_free_memory) malloc_trim(0);  // the many small border lists
   }
 
   // The links between local components (whole-mesh numbers): through the vertices they share.
@@ -777,7 +777,7 @@ struct BrickMesher {
     }
     bm.clear();
     bm.shrink_to_fit();
-    malloc_trim(0);
+    if (opts.return_free_memory) malloc_trim(0);
     if (comm) {
       m.edges = comm->sum(m.edges);
       problems = comm->sum(problems);
@@ -797,7 +797,7 @@ struct BrickMesher {
     }
     std::vector<BrickMeasure::Comp>().swap(comps);
     std::vector<std::array<std::uint32_t, 2>>().swap(links);
-    malloc_trim(0);
+    if (opts.return_free_memory) malloc_trim(0);
   }
 
   // Every rank's local components and links go to rank 0, which joins and resolves them and
@@ -943,7 +943,8 @@ TriMesh extract(const SampledGrid& grid, const ExtractOptions& opts, ExtractStat
 
 TriMesh extract(SampledGrid&& grid, const ExtractOptions& opts, ExtractStats* stats) {
   TriMesh mesh = extract_bricks(grid.impl(), true, opts, stats, nullptr);
-  malloc_trim(0);  // the many small blocks of the bricks' passes, free now
+  if (opts.return_free_memory)
+    malloc_trim(0);  // the many small blocks of the bricks' passes, free now
   return mesh;
 }
 
@@ -975,7 +976,7 @@ TriMesh extract_part(SampledGrid&& grid, const ExtractOptions& opts, ExtractStat
     throw std::logic_error("extract_part: the grid was not sampled with a distribution");
   find_neighbour_ranks(*impl.distribution, part);
   TriMesh mesh = extract_bricks(impl, true, opts, &stats, &part);
-  malloc_trim(0);
+  if (opts.return_free_memory) malloc_trim(0);
   return mesh;
 }
 

@@ -23,6 +23,9 @@ struct SampleOptions {
   ProgressFn progress;
   /// Checked throughout the work; when requested, the stage throws Cancelled.
   const CancelToken* cancel = nullptr;
+  /// Hand the memory freed between passes back to the system (malloc_trim): lowers the peak of a
+  /// large run, costs time on a small one (run_pipeline decides from its estimate).
+  bool return_free_memory = true;
   /// Internal: the ranks of a distributed run (qjulia-mpi); null for one process. The sampler
   /// deals the bricks to the ranks (sets its `first`) and keeps only this rank's.
   detail::Distribution* distribution = nullptr;

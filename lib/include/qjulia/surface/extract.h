@@ -18,6 +18,9 @@ struct ExtractOptions {
   double tolerance = 0.02;
   /// At most this many classifier calls per vertex.
   int max_refine_steps = 24;
+  /// Hand the memory freed between passes back to the system (malloc_trim): lowers the peak of a
+  /// large run, costs time on a small one (run_pipeline decides from its estimate).
+  bool return_free_memory = true;
   /// Per-vertex colours (left empty for kNone).
   ColorMode color = ColorMode::kNone;
   /// Progress in [0, 1]; return false to cancel.
