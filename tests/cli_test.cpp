@@ -358,6 +358,28 @@ TEST_F(Cli, WorkingCommandsRunWithMallocOnHugePagesUnlessTheUserDecides) {
   }
 }
 
+TEST_F(Cli, MallocTakesBlocksUpTo32MiBFromTheHeapUnlessTheUserSetsAThreshold) {
+  // `bench` allocates a block of 16 MiB and says where malloc put it: glibc's default maps it on
+  // its own (threshold 128 KiB); the command fixes the threshold at 32 MiB, unless the user set
+  // one (GLIBC_TUNABLES, or glibc's MALLOC_*_THRESHOLD_ variables).
+  const auto state = [&](const std::string& env) {
+    const CliRun r = run("bench --presets unit-ball --resolutions 16 --threads 1",
+                         env.empty() ? "" : "export " + env);
+    EXPECT_EQ(r.code, 0) << r.err;
+    const std::string key = "malloc thresholds: ";
+    const auto at = r.out.find(key);
+    if (at == std::string::npos) return std::string("(no line) ") + r.out;
+    return r.out.substr(at + key.size(), r.out.find('\n', at) - at - key.size());
+  };
+  EXPECT_EQ(state(""), "a 16 MiB block is on the heap");
+  EXPECT_EQ(state("GLIBC_TUNABLES=glibc.malloc.mmap_threshold=131072"),
+            "a 16 MiB block is mapped on its own (the user sets the mmap threshold)");
+  EXPECT_EQ(state("MALLOC_MMAP_THRESHOLD_=131072"),
+            "a 16 MiB block is mapped on its own (the user sets the mmap threshold)");
+  EXPECT_EQ(state("MALLOC_TRIM_THRESHOLD_=1048576"),
+            "a 16 MiB block is on the heap (the user sets the trim threshold)");
+}
+
 TEST_F(Cli, AFileSizeLimitFailsTheWriteNamingTheFileAndLeavesNoFile) {
   // Under `ulimit -f` a write beyond the limit raises SIGXFSZ, which would kill the process
   // with its temporary file left behind; the CLI ignores it, so the write fails with EFBIG.

@@ -4,7 +4,7 @@
 
 #include "cli.h"
 #include "commands.h"
-#include "huge_pages.h"
+#include "malloc_setup.h"
 #include "qjulia/base/error.h"
 #include "qjulia/field/kernel_speed.h"
 #include "qjulia/pipeline/pipeline.h"
@@ -52,6 +52,7 @@ int cmd_bench(const Tokens& tokens, const CancelToken& cancel) {
   const ThreadLimit threads(args);
   const int nthreads = threads.threads();
   std::printf("malloc on transparent huge pages: %s\n", malloc_huge_pages_state().c_str());
+  std::printf("malloc thresholds: %s\n", malloc_thresholds_state().c_str());
   {
     const auto [band, box] = measure_kernel_speed();
     std::printf("kernel of h^2 + c (classic-julia), one core, voxel-iterations per second:\n");

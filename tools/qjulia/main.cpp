@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "commands.h"
-#include "huge_pages.h"
+#include "malloc_setup.h"
 #include "qjulia/base/error.h"
 #include "qjulia/pipeline/pipeline.h"
 #include "signals.h"
@@ -59,6 +59,10 @@ int main(int argc, char** argv) {
         first == "bench" || first == "explore")
       restart_with_malloc_huge_pages(argv);
   }
+  // Blocks up to 32 MiB from the heap, which keeps its free top up to 128 MiB: a run's passes
+  // reuse its pages instead of faulting in fresh ones (classic-julia at 256 on one thread: 0.29 s
+  // instead of 0.36).
+  fix_malloc_thresholds();
   install_signal_handlers();
   const qjulia::CancelToken& cancel = interrupt_token();
   if (argc < 2) {

@@ -1,7 +1,9 @@
-#include "huge_pages.h"
+#include "malloc_setup.h"
 
+#include <malloc.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -31,7 +33,39 @@ bool tunable_set() {
   return t && std::strstr(t, kTunable);
 }
 
+/// Whether the user chose malloc's threshold `name` ("mmap" or "trim"): through GLIBC_TUNABLES
+/// or glibc's older MALLOC_MMAP_THRESHOLD_ / MALLOC_TRIM_THRESHOLD_.
+bool user_threshold(const std::string& name) {
+  const char* t = std::getenv("GLIBC_TUNABLES");
+  if (t && std::strstr(t, ("glibc.malloc." + name + "_threshold").c_str())) return true;
+  std::string old = "MALLOC_" + name + "_THRESHOLD_";
+  for (char& c : old) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return std::getenv(old.c_str()) != nullptr;
+}
+
+constexpr int kMmapThreshold = 32 << 20;  // glibc's largest (HEAP_MAX_SIZE / 2 on 64 bits)
+constexpr int kTrimThreshold = 128 << 20;
+
 }  // namespace
+
+void fix_malloc_thresholds() {
+  if (!user_threshold("mmap")) mallopt(M_MMAP_THRESHOLD, kMmapThreshold);
+  if (!user_threshold("trim")) mallopt(M_TRIM_THRESHOLD, kTrimThreshold);
+}
+
+std::string malloc_thresholds_state() {
+  const std::size_t before = mallinfo2().hblks;
+  void* volatile block = std::malloc(std::size_t(16) << 20);
+  const bool mapped = mallinfo2().hblks > before;
+  std::free(block);
+  std::string state =
+      mapped ? "a 16 MiB block is mapped on its own" : "a 16 MiB block is on the heap";
+  std::string user;
+  for (const char* name : {"mmap", "trim"})
+    if (user_threshold(name)) user += std::string(user.empty() ? "" : ", ") + name;
+  if (!user.empty()) state += " (the user sets the " + user + " threshold)";
+  return state;
+}
 
 std::string malloc_huge_pages_state() {
   const std::string mode = thp_mode();

@@ -1,0 +1,34 @@
+// How the qjulia command sets up malloc: transparent huge pages (it restarts itself once with
+// glibc's `glibc.malloc.hugetlb=1` tunable, which glibc reads only at a process's start) and
+// fixed thresholds for mapping and trimming.
+#pragma once
+
+#include <string>
+
+namespace qjulia::cli {
+
+/// Where the machine's transparent huge pages stand for this process: "on" (malloc asks for them),
+/// or "off (...)" with the reason.
+std::string malloc_huge_pages_state();
+
+/// When the kernel gives transparent huge pages only to memory that asks for them (mode
+/// `madvise`), and neither GLIBC_TUNABLES nor QJULIA_HUGE_PAGES=0 has decided otherwise, runs
+/// this program again (same pid, arguments and environment, plus the tunable) so that malloc asks
+/// for them: on a virtual machine a page fault costs several microseconds, and a run touches
+/// every page of its memory once. Returns (and the run goes on as it is) when it does nothing or
+/// the restart fails.
+void restart_with_malloc_huge_pages(char** argv);
+
+/// Fixes malloc's thresholds: blocks up to 32 MiB come from the heap, and the heap hands its free
+/// top back to the system only past 128 MiB. glibc's defaults map every block over 128 KiB on
+/// its own until the process has freed one, and trim the top past 256 KiB: each pass of a run
+/// then faults its pages in afresh (classic-julia at 256 on one thread: ~5,600 page faults
+/// instead of ~1,400). The runs that free much trim on their own (see `return_free_memory`).
+/// A threshold that GLIBC_TUNABLES or glibc's MALLOC_*_THRESHOLD_ variable sets is left alone.
+void fix_malloc_thresholds();
+
+/// What `fix_malloc_thresholds` left in force, observed: whether a block of 16 MiB comes from the
+/// heap, and which thresholds the user set.
+std::string malloc_thresholds_state();
+
+}  // namespace qjulia::cli
