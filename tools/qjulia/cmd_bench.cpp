@@ -29,17 +29,19 @@ int cmd_bench(const Tokens& tokens, const CancelToken& cancel) {
                                       {"max-memory"},
                                       {"dense", false},
                                       {"kernel", false},
+                                      {"malloc", false},
                                       {"help", false}},
                                      "bench");
   if (args.has("help")) {
     std::puts(
         "usage: qjulia bench [--presets a,b] [--resolutions 256,512] [--threads T]\n"
-        "                    [--max-memory SIZE] [--dense] [--kernel]\n"
+        "                    [--max-memory SIZE] [--dense] [--kernel] [--malloc]\n"
         "Prints the speed of the compiled formula against a hand-written kernel of the same map\n"
         "(h^2 + c, voxel-iterations per second on one core), then runs the pipeline (sample,\n"
         "extract, clean, measure; no export) and prints figures.\n"
         "Defaults: classic-julia,newton-cubic at 256,512 on all cores.\n"
-        "  --kernel             only the kernel comparison\n"
+        "  --kernel             only the malloc lines and the kernel comparison\n"
+        "  --malloc             only the malloc lines (huge pages, thresholds)\n"
         "  --resolutions LIST   comma-separated, each 1..1000000\n"
         "  --threads T          worker threads, 1..1024\n"
         "  --max-memory SIZE    the memory a run may use (4G, 512M; at least 1M)");
@@ -53,6 +55,7 @@ int cmd_bench(const Tokens& tokens, const CancelToken& cancel) {
   const int nthreads = threads.threads();
   std::printf("malloc on transparent huge pages: %s\n", malloc_huge_pages_state().c_str());
   std::printf("malloc thresholds: %s\n", malloc_thresholds_state().c_str());
+  if (args.has("malloc")) return 0;
   {
     const auto [band, box] = measure_kernel_speed();
     std::printf("kernel of h^2 + c (classic-julia), one core, voxel-iterations per second:\n");

@@ -1,5 +1,6 @@
 #include "malloc_setup.h"
 
+#include <fcntl.h>
 #include <malloc.h>
 #include <unistd.h>
 
@@ -54,12 +55,18 @@ void fix_malloc_thresholds() {
 }
 
 std::string malloc_thresholds_state() {
-  const std::size_t before = mallinfo2().hblks;
-  void* volatile block = std::malloc(std::size_t(16) << 20);
-  const bool mapped = mallinfo2().hblks > before;
+  constexpr std::size_t kBlock = std::size_t(16) << 20;
+  const struct mallinfo2 before = mallinfo2();
+  void* volatile block = std::malloc(kBlock);
+  const struct mallinfo2 after = mallinfo2();
   std::free(block);
-  std::string state =
-      mapped ? "a 16 MiB block is mapped on its own" : "a 16 MiB block is on the heap";
+  std::string state;
+  if (after.hblkhd >= before.hblkhd + kBlock)
+    state = "a 16 MiB block is mapped on its own";
+  else if (after.uordblks >= before.uordblks + kBlock)
+    state = "a 16 MiB block is on the heap";
+  else
+    state = "malloc is not glibc's (a sanitizer's?): its thresholds do not apply";
   std::string user;
   for (const char* name : {"mmap", "trim"})
     if (user_threshold(name)) user += std::string(user.empty() ? "" : ", ") + name;
@@ -81,19 +88,42 @@ std::string malloc_huge_pages_state() {
 }
 
 void restart_with_malloc_huge_pages(char** argv) {
-  if (opted_out() || tunable_set() || thp_mode() != "madvise") return;
+  // Plain libc only: this runs before the C++ runtime and the libraries are initialised.
+  if (opted_out() || tunable_set()) return;
+  const int fd = open("/sys/kernel/mm/transparent_hugepage/enabled", O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return;
+  char line[128];
+  const ssize_t n = read(fd, line, sizeof line - 1);
+  close(fd);
+  if (n <= 0) return;
+  line[n] = '\0';
+  if (!std::strstr(line, "[madvise]")) return;
   const char* old = std::getenv("GLIBC_TUNABLES");
-  const std::string saved = old ? old : "";
-  const std::string value =
-      saved.empty() ? std::string(kTunable) + "=1" : saved + ":" + kTunable + "=1";
-  if (setenv("GLIBC_TUNABLES", value.c_str(), 1) != 0) return;
+  char saved[4096];
+  if (old && std::strlen(old) + std::strlen(kTunable) + 3 > sizeof saved) return;
+  if (old) std::strcpy(saved, old);
+  char value[4096];
+  std::strcpy(value, old ? saved : "");
+  if (old && *old) std::strcat(value, ":");
+  std::strcat(value, kTunable);
+  std::strcat(value, "=1");
+  if (setenv("GLIBC_TUNABLES", value, 1) != 0 || !tunable_set()) return;  // never a loop
   execv("/proc/self/exe", argv);
   // The restart failed (no /proc, say): go on as we are, with the environment as it was.
   if (old) {
-    setenv("GLIBC_TUNABLES", saved.c_str(), 1);
+    setenv("GLIBC_TUNABLES", saved, 1);
   } else {
     unsetenv("GLIBC_TUNABLES");
   }
+}
+
+void restart_early(int argc, char** argv, char** envp) {
+  if (argc < 2) return;
+  // The C library sets `environ` in its own initialiser, which has not run yet: without this,
+  // getenv would find nothing and setenv would start an environment of one variable.
+  if (environ != envp) environ = envp;
+  for (const char* command : {"mesh", "compare", "render", "experiment", "bench", "explore"})
+    if (std::strcmp(argv[1], command) == 0) return restart_with_malloc_huge_pages(argv);
 }
 
 }  // namespace qjulia::cli

@@ -16,8 +16,16 @@ std::string malloc_huge_pages_state();
 /// this program again (same pid, arguments and environment, plus the tunable) so that malloc asks
 /// for them: on a virtual machine a page fault costs several microseconds, and a run touches
 /// every page of its memory once. Returns (and the run goes on as it is) when it does nothing or
-/// the restart fails.
+/// the restart fails. Uses only the C library, so that it can run before the libraries'
+/// initialisers (see `restart_early`).
 void restart_with_malloc_huge_pages(char** argv);
+
+/// `restart_with_malloc_huge_pages` for the commands that do real work (`mesh`, `compare`,
+/// `render`, `experiment`, `bench`, `explore`); the quick ones are left alone. Meant for the
+/// program's `.preinit_array`, which the dynamic loader runs before any shared library's
+/// initialiser: the process that restarts then does not pay for those (about 12 ms: libhwy's
+/// timer calibration, OpenSSL's configuration, TBB, the C++ runtime).
+void restart_early(int argc, char** argv, char** envp);
 
 /// Fixes malloc's thresholds: blocks up to 32 MiB come from the heap, and the heap hands its free
 /// top back to the system only past 128 MiB. glibc's defaults map every block over 128 KiB on
