@@ -106,6 +106,16 @@ class Cli : public ::testing::Test {
     return r;
   }
 
+  // The rest of the line of `qjulia bench --malloc` that starts with `key`, run with the
+  // environment assignment `env` exported first (none when empty).
+  std::string bench_malloc_line(const std::string& key, const std::string& env) const {
+    const CliRun r = run("bench --malloc", env.empty() ? "" : "export " + env);
+    EXPECT_EQ(r.code, 0) << r.err;
+    const auto at = r.out.find(key);
+    if (at == std::string::npos) return "(no line) " + r.out;
+    return r.out.substr(at + key.size(), r.out.find('\n', at) - at - key.size());
+  }
+
   fs::path root_, work_;
 };
 
@@ -333,12 +343,7 @@ TEST_F(Cli, WorkingCommandsRunWithMallocOnHugePagesUnlessTheUserDecides) {
   // with glibc's tunable added to those the user set; QJULIA_HUGE_PAGES=0 or a user's own
   // glibc.malloc.hugetlb keep it as it is.
   const auto state = [&](const std::string& env) {
-    const CliRun r = run("bench --malloc", env.empty() ? "" : "export " + env);
-    EXPECT_EQ(r.code, 0) << r.err;
-    const std::string key = "malloc on transparent huge pages: ";
-    const auto at = r.out.find(key);
-    if (at == std::string::npos) return std::string("(no line) ") + r.out;
-    return r.out.substr(at + key.size(), r.out.find('\n', at) - at - key.size());
+    return bench_malloc_line("malloc on transparent huge pages: ", env);
   };
   const std::string mode = thp_mode();
   if (mode == "madvise") {
@@ -363,12 +368,7 @@ TEST_F(Cli, MallocTakesBlocksUpTo32MiBFromTheHeapUnlessTheUserSetsAThreshold) {
   // user set one (GLIBC_TUNABLES, or glibc's MALLOC_*_THRESHOLD_ variables). A sanitizer's
   // malloc has no such thresholds, and the line says so.
   const auto state = [&](const std::string& env) {
-    const CliRun r = run("bench --malloc", env.empty() ? "" : "export " + env);
-    EXPECT_EQ(r.code, 0) << r.err;
-    const std::string key = "malloc thresholds: ";
-    const auto at = r.out.find(key);
-    if (at == std::string::npos) return std::string("(no line) ") + r.out;
-    return r.out.substr(at + key.size(), r.out.find('\n', at) - at - key.size());
+    return bench_malloc_line("malloc thresholds: ", env);
   };
 #if defined(__SANITIZE_ADDRESS__)
   const std::string heap = "malloc is not glibc's (a sanitizer's?): its thresholds do not apply";

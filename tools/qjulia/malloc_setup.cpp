@@ -7,7 +7,6 @@
 #include <cctype>
 #include <cstdlib>
 #include <cstring>
-#include <fstream>
 
 namespace qjulia::cli {
 namespace {
@@ -15,13 +14,19 @@ namespace {
 constexpr const char* kTunable = "glibc.malloc.hugetlb";
 
 /// The kernel's transparent huge page mode: "always", "madvise", "never", or "" when unknown.
-std::string thp_mode() {
-  std::ifstream in("/sys/kernel/mm/transparent_hugepage/enabled");
-  std::string line;
-  if (!std::getline(in, line)) return "";
-  const auto open = line.find('['), close = line.find(']');
-  if (open == std::string::npos || close == std::string::npos || close < open) return "";
-  return line.substr(open + 1, close - open - 1);
+/// Plain libc: the restart reads it before the C++ runtime is initialised.
+const char* thp_mode() {
+  const int fd = open("/sys/kernel/mm/transparent_hugepage/enabled", O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return "";
+  char line[128];
+  const ssize_t n = read(fd, line, sizeof line - 1);
+  close(fd);
+  if (n <= 0) return "";
+  line[n] = '\0';
+  if (std::strstr(line, "[always]")) return "always";
+  if (std::strstr(line, "[madvise]")) return "madvise";
+  if (std::strstr(line, "[never]")) return "never";
+  return "";
 }
 
 bool opted_out() {
@@ -89,15 +94,7 @@ std::string malloc_huge_pages_state() {
 
 void restart_with_malloc_huge_pages(char** argv) {
   // Plain libc only: this runs before the C++ runtime and the libraries are initialised.
-  if (opted_out() || tunable_set()) return;
-  const int fd = open("/sys/kernel/mm/transparent_hugepage/enabled", O_RDONLY | O_CLOEXEC);
-  if (fd < 0) return;
-  char line[128];
-  const ssize_t n = read(fd, line, sizeof line - 1);
-  close(fd);
-  if (n <= 0) return;
-  line[n] = '\0';
-  if (!std::strstr(line, "[madvise]")) return;
+  if (opted_out() || tunable_set() || std::strcmp(thp_mode(), "madvise") != 0) return;
   const char* old = std::getenv("GLIBC_TUNABLES");
   char saved[4096];
   if (old && std::strlen(old) + std::strlen(kTunable) + 3 > sizeof saved) return;
@@ -121,7 +118,7 @@ void restart_early(int argc, char** argv, char** envp) {
   if (argc < 2) return;
   // The C library sets `environ` in its own initialiser, which has not run yet: without this,
   // getenv would find nothing and setenv would start an environment of one variable.
-  if (environ != envp) environ = envp;
+  environ = envp;
   for (const char* command : {"mesh", "compare", "render", "experiment", "bench", "explore"})
     if (std::strcmp(argv[1], command) == 0) return restart_with_malloc_huge_pages(argv);
 }
