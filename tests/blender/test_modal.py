@@ -76,9 +76,12 @@ def steps():
         assert ticks[-1] - ticks[0] < 60, "the window never became responsive"
         yield 0.02
         ticks.append(time.monotonic())
+    # Long enough to watch: at 128 the sampling ended before the first status update and the
+    # whole run took about 0.4 s, so one slow redraw read as a freeze.
+    resolution = 192
     with bpy.context.temp_override(**ui):
         assert bpy.ops.mesh.qjulia_add('INVOKE_DEFAULT', preset="newton-cubic",
-                                       resolution=128) == {'RUNNING_MODAL'}
+                                       resolution=resolution) == {'RUNNING_MODAL'}
     job = shown[0][0]
     ticks = [time.monotonic()]
     while not job.done:  # the interface handles events meanwhile: this timer keeps firing
@@ -95,7 +98,8 @@ def steps():
     while not bpy.data.objects:
         yield 0.05
     obj = bpy.data.objects[0]
-    stats = cli_stats("--preset", "newton-cubic", "--resolution", 128, "--color", "iterations")
+    stats = cli_stats("--preset", "newton-cubic", "--resolution", resolution, "--color",
+                      "iterations")
     assert (len(obj.data.vertices), len(obj.data.polygons)) == (stats["vertices"], stats["faces"])
     assert obj.data.color_attributes.get(build.COLOR_ATTRIBUTE) and obj.active_material
 
