@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 #include <random>
+#include <string_view>
 
 #include "io_fixtures.h"
 #include "qjulia/base/atomic_file.h"
@@ -77,7 +78,7 @@ TEST(AtomicFile, TemporaryNamesAreExclusiveAndALinkToAFileIsReplacedNotFollowed)
   EXPECT_EQ(dir.names(), (std::vector<std::string>{"link.txt", "target.txt"}));
 }
 
-// Bytes of a large file in pieces of odd sizes: the writer stages blocks of 16 MiB, writes
+// Bytes of a large file in pieces of odd sizes: the writer stages blocks of kStageBytes, writes
 // full ones past the page cache where the file system allows it, and the rest through it.
 std::string big_bytes(std::size_t size) {
   std::string s(size, '\0');
@@ -101,9 +102,9 @@ TEST(AtomicFile, ALargeFileHoldsExactlyItsBytesOnDiskATmpfsAndARamfs) {
   ASSERT_TRUE(disk.mounted());
   Tmpfs ram("80m", "ramfs");  // refuses O_DIRECT: every byte through the page cache
   ASSERT_TRUE(ram.mounted());
-  // Below one block, exactly three blocks, and three blocks and a partial one.
-  for (const std::size_t size :
-       {std::size_t(100000), std::size_t(48) << 20, (std::size_t(48) << 20) + 12345}) {
+  // Below one stage, exactly three stages, and twelve stages and a partial one.
+  constexpr std::size_t kStage = qjulia::AtomicFile::kStageBytes;
+  for (const std::size_t size : {std::size_t(100000), 3 * kStage, 12 * kStage + 12345}) {
     const std::string bytes = big_bytes(size);
     for (const std::string& path :
          {dir.file("big.bin"), disk.file("big.bin"), ram.file("big.bin")}) {
@@ -113,6 +114,73 @@ TEST(AtomicFile, ALargeFileHoldsExactlyItsBytesOnDiskATmpfsAndARamfs) {
       EXPECT_TRUE(read_bytes(path) == bytes) << path << ", " << size << " bytes";
       fs::remove(path);
     }
+  }
+}
+
+// The formatting writer puts its bytes straight into the file's stage: records reserved and
+// committed in part, strings longer than the stage, single characters, reservations larger
+// than the stage and flushes at any point all land in order.
+TEST(AtomicFile, TheFormattingWriterWritesExactlyWhatItIsGiven) {
+  TempDir dir;
+  Tmpfs ram("80m", "ramfs");
+  ASSERT_TRUE(ram.mounted());
+  constexpr std::size_t kStage = qjulia::AtomicFile::kStageBytes;
+  const std::string source = big_bytes(3 * kStage + 777);
+  for (const std::string& path : {dir.file("fmt.bin"), ram.file("fmt.bin")}) {
+    std::mt19937 rng(11);
+    std::string expected;
+    qjulia::AtomicFile f(path);
+    qjulia::BufferedWriter out(f);
+    auto piece = [&](std::size_t n) {
+      return std::string_view(source).substr(rng() % (source.size() - n), n);
+    };
+    // Records alone first (as the binary writers put them: the stage goes out with a partial
+    // block left over each time), then everything mixed.
+    while (expected.size() < 9 * kStage) {
+      switch (expected.size() < 4 * kStage ? rng() % 3 / 2 * 2 : rng() % 6) {
+        case 0: {  // a record, of which only a part is committed
+          const std::size_t n = 1 + rng() % 3000, used = rng() % (n + 1);
+          const std::string_view p = piece(n);
+          std::memcpy(out.reserve(n), p.data(), n);
+          out.advance(used);
+          expected.append(p.substr(0, used));
+          break;
+        }
+        case 1: {  // a string, now and then up to two and a half stages long
+          const std::string_view p = piece(rng() % (rng() % 8 ? 5000 : 5 * kStage / 2));
+          out.put(p.data(), p.size());
+          expected.append(p);
+          break;
+        }
+        case 2: {
+          const char c = static_cast<char>(rng());
+          out.put(c);
+          expected.push_back(c);
+          break;
+        }
+        case 3: {  // a reservation larger than the stage
+          const std::string_view p = piece(kStage + 1 + rng() % 5000);
+          std::memcpy(out.reserve(p.size()), p.data(), p.size());
+          out.advance(p.size());
+          expected.append(p);
+          break;
+        }
+        case 4:
+          out.flush();
+          break;
+        default: {  // a direct write between flushes
+          out.flush();
+          const std::string_view p = piece(rng() % 100000);
+          f.write(p.data(), p.size());
+          expected.append(p);
+        }
+      }
+    }
+    out.flush();
+    f.commit();
+    EXPECT_EQ(fs::file_size(path), expected.size()) << path;
+    EXPECT_TRUE(read_bytes(path) == expected) << path;
+    fs::remove(path);
   }
 }
 

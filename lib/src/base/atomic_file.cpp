@@ -16,7 +16,7 @@
 namespace qjulia {
 namespace {
 
-constexpr std::size_t kBlock = std::size_t(1) << 24;  // bytes per write() between checks
+constexpr std::size_t kBlock = AtomicFile::kStageBytes;  // bytes per write() between checks
 constexpr std::size_t kAlign = 4096;  // what O_DIRECT needs of buffers, sizes and offsets
 
 std::string errno_text(int err) { return std::strerror(err); }
@@ -109,35 +109,58 @@ void AtomicFile::check_open() const {
 void AtomicFile::FreeStage::operator()(char* p) const { std::free(p); }
 
 // Big files skip the page cache: copying 250 MB into it and flushing it with fsync() took about
-// twice as long as writing it directly on the project machine. The data is staged in aligned
-// blocks of kBlock, written directly once a block is full; the last, partial block is written
-// through the page cache. File systems that refuse O_DIRECT (fcntl or the first write fails
-// with EINVAL) are written through the page cache throughout.
+// twice as long as writing it directly on the project machine. The data is staged in an aligned
+// buffer of kBlock (writers format straight into it through room()); when it lacks room, its
+// whole aligned blocks are written directly; the last, partial stage goes through the page cache.
+// File systems that refuse O_DIRECT (fcntl or the first write fails with EINVAL) are written
+// through the page cache throughout.
 void AtomicFile::write(const void* data, std::size_t size) {
-  check_open();
   const char* p = static_cast<const char*>(data);
   while (size > 0) {
-    throw_if_cancelled(cancel_);
-    if (!stage_) {
-      stage_.reset(static_cast<char*>(std::aligned_alloc(kAlign, kBlock)));
-      if (!stage_) throw std::bad_alloc();
-    }
-    const std::size_t n = std::min(size, kBlock - staged_);
-    std::memcpy(stage_.get() + staged_, p, n);
+    const auto [first, last] = room(1);  // fills the stage to its end, as far as size goes
+    const std::size_t n = std::min(size, std::size_t(last - first));
+    std::memcpy(first, p, n);
     staged_ += n;
     p += n;
     size -= n;
-    if (staged_ == kBlock) flush_stage(false);
   }
 }
 
-void AtomicFile::flush_stage(bool last) {
-  if (staged_ == 0) return;
-  if (!last && !direct_tried_) {
+std::pair<char*, char*> AtomicFile::room(std::size_t n) {
+  check_open();
+  if (n > kBlock) throw std::logic_error("AtomicFile::room: more than the stage");
+  if (!stage_) {
+    stage_.reset(static_cast<char*>(std::aligned_alloc(kAlign, kBlock)));
+    if (!stage_) throw std::bad_alloc();
+  }
+  if (kBlock - staged_ < n) spill(n);
+  return {stage_.get() + staged_, stage_.get() + kBlock};
+}
+
+// Writes out the stage's whole aligned blocks and moves the rest (less than one block) to its
+// start; when that still leaves less than `n` free, the rest goes out through the page cache.
+void AtomicFile::spill(std::size_t n) {
+  throw_if_cancelled(cancel_);
+  if (!direct_tried_) {
     direct_tried_ = true;
     direct_ = set_direct(true);
   }
-  // Whole aligned blocks directly; a last partial one through the page cache.
+  const std::size_t head = direct_ ? staged_ / kAlign * kAlign : staged_;
+  if (head > 0) write_out(stage_.get(), head);
+  const std::size_t tail = staged_ - head;
+  if (tail > 0 && kBlock - tail < n) {
+    buffered();
+    write_out(stage_.get() + head, tail);
+    staged_ = 0;
+    return;
+  }
+  if (tail > 0) std::memmove(stage_.get(), stage_.get() + head, tail);
+  staged_ = tail;
+}
+
+// The last, partial stage: its whole aligned blocks directly, the rest through the page cache.
+void AtomicFile::flush_stage() {
+  if (staged_ == 0) return;
   const std::size_t head = direct_ ? staged_ / kAlign * kAlign : 0;
   if (head > 0) write_out(stage_.get(), head);
   if (staged_ > head) {
@@ -178,7 +201,7 @@ void AtomicFile::write_out(const char* p, std::size_t size) {
 
 void AtomicFile::close_for_external() {
   if (fd_ >= 0) {
-    flush_stage(true);
+    flush_stage();
     ::close(fd_);
     fd_ = -1;
   }
@@ -186,7 +209,7 @@ void AtomicFile::close_for_external() {
 
 void AtomicFile::commit() {
   throw_if_cancelled(cancel_);
-  if (fd_ >= 0) flush_stage(true);
+  if (fd_ >= 0) flush_stage();
   // fsync before the rename: the name must never point at data still in the page cache only.
   // It also reports a full disk on file systems that allocate late.
   int fd = fd_;
@@ -211,26 +234,43 @@ void AtomicFile::commit() {
   committed_ = true;
 }
 
-BufferedWriter::BufferedWriter(AtomicFile& file, std::size_t block) : file_(file) {
-  buf_.resize(block);
-}
-
-char* BufferedWriter::reserve(std::size_t n) {
-  if (used_ + n > buf_.size()) {
-    flush();
-    if (n > buf_.size()) buf_.resize(n);
+char* BufferedWriter::refill(std::size_t n) {
+  flush();
+  if (n > AtomicFile::kStageBytes) {
+    large_.resize(n);
+    begin_ = cur_ = large_.data();
+  } else {
+    const auto [first, last] = file_.room(n);
+    begin_ = cur_ = first;
+    end_ = last;
+    return cur_;
   }
-  return buf_.data() + used_;
+  end_ = begin_ + n;
+  return cur_;
 }
 
 void BufferedWriter::put(const char* s, std::size_t n) {
-  std::memcpy(reserve(n), s, n);
-  used_ += n;
+  while (n > 0) {  // fills the room there is, so the stage goes out in whole blocks
+    if (cur_ == end_) refill(1);
+    const std::size_t k = std::min(n, std::size_t(end_ - cur_));
+    std::memcpy(cur_, s, k);
+    cur_ += k;
+    s += k;
+    n -= k;
+  }
 }
 
 void BufferedWriter::flush() {
-  if (used_ > 0) file_.write(buf_.data(), used_);
-  used_ = 0;
+  const std::size_t n = std::size_t(cur_ - begin_);
+  if (begin_ == large_.data() && !large_.empty()) {
+    const std::string large = std::move(large_);
+    large_.clear();
+    begin_ = cur_ = end_ = nullptr;
+    file_.write(large.data(), n);
+    return;
+  }
+  if (n > 0) file_.staged(n);
+  begin_ = cur_ = end_ = nullptr;
 }
 
 }  // namespace qjulia

@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <memory>
 #include <string>
+#include <utility>
 
 #include "qjulia/base/progress.h"
 
@@ -27,7 +28,7 @@ class AtomicFile {
  public:
   /// Checks `final_path` (check_output_path) and creates the temporary file beside it, with a
   /// name no other writer uses (created exclusively). `cancel` is checked before every block
-  /// written (at most 16 MiB each).
+  /// written (at most 4 MiB each).
   /// @throws InvalidInput naming `final_path` when it may not be written (see
   ///         check_output_path; also a read-only file system); std::runtime_error when the
   ///         temporary file cannot be created for another reason.
@@ -40,6 +41,16 @@ class AtomicFile {
   /// full, file too large, I/O error); Cancelled when the token is set.
   void write(const void* data, std::size_t size);
   void write(const std::string& s) { write(s.data(), s.size()); }
+
+  /// The bytes of the file's stage, the buffer its writes go through.
+  static constexpr std::size_t kStageBytes = std::size_t(1) << 22;
+  /// Free room of at least `n` bytes (n <= kStageBytes) at the end of the stage, writing out
+  /// what it holds first when it lacks the room: [first, last). Bytes put there join the file
+  /// through staged(). Throws as write() does.
+  std::pair<char*, char*> room(std::size_t n);
+  /// Appends the first `n` bytes of the room room() returned last (n <= its size). Between
+  /// room() and staged() the file takes no other write.
+  void staged(std::size_t n) { staged_ += n; }
 
   /// The temporary file's path, for libraries that write a file themselves (lib3mf). Call
   /// close_for_external() before they write it.
@@ -62,39 +73,47 @@ class AtomicFile {
   void write_out(const char* p, std::size_t size);
   bool set_direct(bool on);  // O_DIRECT on or off; false when fcntl fails
   void buffered();           // the rest through the page cache (O_DIRECT off)
-  void flush_stage(bool last);
+  void flush_stage();
+  void spill(std::size_t n);  // writes out the stage's whole aligned blocks to make room for n
   std::string final_path_;
   std::string temp_path_;
   const CancelToken* cancel_ = nullptr;
   int fd_ = -1;
   bool committed_ = false;
-  // Writes go through an aligned stage of 16 MiB; from the first full stage on, they bypass
-  // the page cache (O_DIRECT) where the file system allows it.
+  // Writes go through an aligned stage of kStageBytes; from the first full stage on, they
+  // bypass the page cache (O_DIRECT) where the file system allows it.
   std::unique_ptr<char, FreeStage> stage_;
   std::size_t staged_ = 0;
   bool direct_ = false, direct_tried_ = false;
 };
 
-/// A growing byte buffer for text output that flushes to an AtomicFile in big blocks.
+/// Formats output straight into an AtomicFile's stage (no buffer of its own, no copy): reserve
+/// room, write there, advance past what was written. Bytes not flushed are not written.
 class BufferedWriter {
  public:
-  explicit BufferedWriter(AtomicFile& file, std::size_t block = std::size_t(1) << 24);
-  /// Reserves `n` bytes at the end and returns a pointer to them (flushes first if needed).
-  char* reserve(std::size_t n);
+  explicit BufferedWriter(AtomicFile& file) : file_(file) {}
+  BufferedWriter(const BufferedWriter&) = delete;
+  BufferedWriter& operator=(const BufferedWriter&) = delete;
+  /// Reserves `n` bytes at the end and returns a pointer to them.
+  char* reserve(std::size_t n) { return n <= std::size_t(end_ - cur_) ? cur_ : refill(n); }
   /// Commits `n` of the reserved bytes.
-  void advance(std::size_t n) { used_ += n; }
+  void advance(std::size_t n) { cur_ += n; }
   void put(const char* s, std::size_t n);
   void put(const std::string& s) { put(s.data(), s.size()); }
   void put(char c) {
     *reserve(1) = c;
-    ++used_;
+    ++cur_;
   }
+  /// Hands the committed bytes to the file.
   void flush();
 
  private:
+  char* refill(std::size_t n);
   AtomicFile& file_;
-  std::string buf_;
-  std::size_t used_ = 0;
+  char* begin_ = nullptr;  // the reserved span: the file's stage, or `large_`
+  char* cur_ = nullptr;
+  char* end_ = nullptr;
+  std::string large_;  // a reservation larger than the stage
 };
 
 }  // namespace qjulia

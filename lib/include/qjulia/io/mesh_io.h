@@ -27,7 +27,7 @@ struct ExportOptions {
   /// Units of the positions: "mm" for printing (3MF unit, STL header), "" for model units.
   std::string unit;
   ProgressFn progress;
-  /// Checked between the blocks written (16 MiB at most); when requested, write_mesh throws
+  /// Checked between the blocks written (4 MiB at most); when requested, write_mesh throws
   /// Cancelled and leaves no file.
   const CancelToken* cancel = nullptr;
 };
