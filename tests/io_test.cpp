@@ -3,6 +3,7 @@
 // memory, cancellation of the writers, and the fuzzers' regression inputs.
 #include <gtest/gtest.h>
 #include <sys/stat.h>
+#include <tbb/task_arena.h>
 #include <zip.h>
 
 #include <cmath>
@@ -499,6 +500,24 @@ TEST(Writers, StopBetweenBlocksWhenTheTokenIsSetAndLeaveNoFile) {
     opts.cancel = &token;
     EXPECT_THROW(qjulia::write_mesh(dir.file("m" + ext), mesh, opts), qjulia::Cancelled) << ext;
     EXPECT_TRUE(dir.names().empty()) << ext << ": " << dir.names().front();
+  }
+}
+
+// The binary writers make the records that fit in the file's stage in parallel: the bytes must
+// not depend on the threads (a mesh of 328k faces spans several stages in PLY and STL).
+TEST(Writers, TheirBytesDoNotDependOnTheThreads) {
+  const TriMesh mesh = fixtures::icosphere(7);
+  ASSERT_GT(mesh.triangles.size(), 300000u);
+  for (const auto& ext : kExtensions) {
+    std::string bytes[2];
+    for (int threads : {1, 2}) {
+      TempDir dir;  // one name in both (a .gltf names its .bin)
+      const std::string path = dir.file("m" + ext);
+      tbb::task_arena(threads).execute([&] { qjulia::write_mesh(path, mesh); });
+      bytes[threads - 1] = read_bytes(path);
+    }
+    EXPECT_FALSE(bytes[0].empty()) << ext;
+    EXPECT_TRUE(bytes[0] == bytes[1]) << ext;
   }
 }
 

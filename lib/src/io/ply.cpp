@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "io/formats.h"
+#include "io/records.h"
 #include "io/text.h"
 #include "qjulia/base/atomic_file.h"
 
@@ -51,15 +52,10 @@ void write_ply(const std::string& path, const ExportData& data) {
   AtomicFile file(path, data.cancel);
   BufferedWriter out(file);
   out.put(ply_header(data, mesh.positions.size(), mesh.triangles.size()));
-  const std::size_t record = ply_vertex_record(data);
-  for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
-    put_ply_vertex(out.reserve(record), data, v);
-    out.advance(record);
-  }
-  for (const auto& t : mesh.triangles) {
-    put_ply_face(out.reserve(kPlyFaceRecord), t);
-    out.advance(kPlyFaceRecord);
-  }
+  put_records(out, mesh.positions.size(), ply_vertex_record(data),
+              [&](char* p, std::size_t v) { put_ply_vertex(p, data, v); });
+  put_records(out, mesh.triangles.size(), kPlyFaceRecord,
+              [&](char* p, std::size_t f) { put_ply_face(p, mesh.triangles[f]); });
   out.flush();
   file.commit();
 }

@@ -5,6 +5,7 @@
 
 #include "base/geometry.h"
 #include "io/formats.h"
+#include "io/records.h"
 #include "io/text.h"
 #include "qjulia/base/atomic_file.h"
 
@@ -53,11 +54,10 @@ void write_stl(const std::string& path, const ExportData& data) {
   AtomicFile file(path, data.cancel);
   BufferedWriter out(file);
   out.put(stl_header(data, uint32_t(mesh.triangles.size())));
-  for (const auto& t : mesh.triangles) {
-    put_stl_face(out.reserve(kStlFaceRecord), mesh.positions[t[0]], mesh.positions[t[1]],
-                 mesh.positions[t[2]]);
-    out.advance(kStlFaceRecord);
-  }
+  put_records(out, mesh.triangles.size(), kStlFaceRecord, [&](char* p, std::size_t f) {
+    const auto& t = mesh.triangles[f];
+    put_stl_face(p, mesh.positions[t[0]], mesh.positions[t[1]], mesh.positions[t[2]]);
+  });
   out.flush();
   file.commit();
 }

@@ -98,6 +98,8 @@ class BufferedWriter {
   char* reserve(std::size_t n) { return n <= std::size_t(end_ - cur_) ? cur_ : refill(n); }
   /// Commits `n` of the reserved bytes.
   void advance(std::size_t n) { cur_ += n; }
+  /// The bytes reserve() can give without writing anything out (at least the last n asked).
+  std::size_t room() const { return std::size_t(end_ - cur_); }
   void put(const char* s, std::size_t n);
   void put(const std::string& s) { put(s.data(), s.size()); }
   void put(char c) {
