@@ -487,6 +487,32 @@ TEST_F(Cli, MeshWritesTheMeshAndTheStatsOfTheUnitBall) {
   EXPECT_NE(r.out.find("ball.ply"), std::string::npos) << r.out;
 }
 
+// `--stats -`: the JSON alone on standard output (the summary moves to standard error), and
+// no file named "-"; the other outputs take file names only.
+TEST_F(Cli, StatsToStandardOutputAreTheStatsOfTheFileWritten) {
+  const CliRun r = run("mesh --preset unit-ball --resolution 32 -o ball.ply --stats -");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(files(), (std::vector<std::string>{"ball.ply"}));
+  json s;
+  ASSERT_NO_THROW(s = json::parse(r.out)) << r.out;
+  const CliRun f = run("mesh --preset unit-ball --resolution 32 -o ball2.ply --stats s.json");
+  ASSERT_EQ(f.code, 0) << f.err;
+  const json from_file = json::parse(read_text(work_ / "s.json"));
+  for (const char* key : {"vertices", "faces", "evaluations", "volume", "area", "euler"})
+    EXPECT_EQ(s[key], from_file[key]) << key;
+  EXPECT_NE(r.err.find("mesh:  ball.ply"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("evaluations:"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("stats:"), std::string::npos) << r.err;
+  for (const char* option : {"--vdb", "--preview"}) {
+    const CliRun bad =
+        run(std::string("mesh --preset unit-ball --resolution 32 -o b.ply ") + option + " -");
+    EXPECT_EQ(bad.code, 2) << option;
+    EXPECT_NE(bad.err.find(std::string(option) + " takes a file name"), std::string::npos)
+        << bad.err;
+  }
+  EXPECT_EQ(files(), (std::vector<std::string>{"ball.ply", "ball2.ply", "s.json"}));
+}
+
 TEST_F(Cli, MeshToStlWritesTheParametersBesideIt) {
   const CliRun r =
       run("mesh --preset unit-ball --resolution 24 --iterations 7 --quiet -o ball.stl");

@@ -46,7 +46,8 @@ print:
   --check                    count self-intersections
 run:
   -o, --output OUT           the mesh file; the format follows the extension
-  --stats FILE               figures of the run as JSON
+  --stats FILE               figures of the run as JSON ('-': on standard output, the
+                             summary on standard error)
   --vdb FILE                 the sampled grid as an OpenVDB file
   --preview FILE.png         a preview image of the mesh (--preview-shading, --preview-rotate,
                              ... as for qjulia render; listed below)
@@ -119,8 +120,12 @@ std::unique_ptr<MeshCommand> parse_mesh_command(const std::vector<std::string>& 
   if (!args.positional.empty()) written.add_input(args.positional[0]);
   for (const auto& f : output_files(cmd->out)) written.claim(f);
   if (format_from_path(cmd->out) == MeshFormat::kStl) written.claim(cmd->out + ".json");
+  for (const char* name : {"vdb", "preview"})
+    if (args.get(name) == "-")
+      throw InvalidInput(std::string("--") + name + " takes a file name ('-' is not standard " +
+                         "output here: only --stats writes there)");
   for (const char* name : {"vdb", "preview", "stats"})
-    if (auto f = args.get(name)) written.claim(*f);
+    if (auto f = args.get(name); f && *f != "-") written.claim(*f);
 
   PipelineOptions& popts = cmd->pipeline;
   popts.dense = args.has("dense");
@@ -147,22 +152,29 @@ void finish_mesh_command(MeshCommand& cmd, RunStats& stats, const TriMesh* mesh,
     write_png(*cmd.preview, render(*mesh, cmd.preview_options));
     written.add(*cmd.preview);
   }
+  const bool stats_out = cmd.stats_path == "-";
+  std::string stats_json;
   if (cmd.stats_path) {
     stats.peak_rss_bytes = peak_rss_bytes();
-    write_file_atomic(*cmd.stats_path, stats_to_json(stats, cmd.params));
-    written.add(*cmd.stats_path);
+    stats_json = stats_to_json(stats, cmd.params);
+    if (!stats_out) {
+      write_file_atomic(*cmd.stats_path, stats_json);
+      written.add(*cmd.stats_path);
+    }
   }
   throw_if_cancelled(&cancel);  // a signal during the last writes still removes every file
   written.commit();
 
+  // With the stats on standard output, the summary goes to standard error.
+  FILE* const summary = stats_out ? stderr : stdout;
   const MeshMeasure& m = stats.measure;
-  std::printf("mesh:  %s (%zu vertices, %zu faces, %s, %s, volume %.6g, area %.6g)\n",
-              cmd.out.c_str(), m.vertices, m.faces, m.closed ? "closed" : "OPEN",
-              m.manifold ? "manifold" : "NON-MANIFOLD", m.volume, m.area);
-  if (!sidecar.empty()) std::printf("parameters: %s\n", sidecar.c_str());
-  if (cmd.stats_path) std::printf("stats: %s\n", cmd.stats_path->c_str());
-  if (cmd.vdb) std::printf("grid:  %s\n", cmd.vdb->c_str());
-  if (cmd.preview) std::printf("preview: %s\n", cmd.preview->c_str());
+  std::fprintf(summary, "mesh:  %s (%zu vertices, %zu faces, %s, %s, volume %.6g, area %.6g)\n",
+               cmd.out.c_str(), m.vertices, m.faces, m.closed ? "closed" : "OPEN",
+               m.manifold ? "manifold" : "NON-MANIFOLD", m.volume, m.area);
+  if (!sidecar.empty()) std::fprintf(summary, "parameters: %s\n", sidecar.c_str());
+  if (cmd.stats_path && !stats_out) std::fprintf(summary, "stats: %s\n", cmd.stats_path->c_str());
+  if (cmd.vdb) std::fprintf(summary, "grid:  %s\n", cmd.vdb->c_str());
+  if (cmd.preview) std::fprintf(summary, "preview: %s\n", cmd.preview->c_str());
   if (stats.decimate && !stats.decimate->target_reached) {
     const auto& d = *stats.decimate;
     const auto& mp = cmd.params.mesh;
@@ -179,11 +191,16 @@ void finish_mesh_command(MeshCommand& cmd, RunStats& stats, const TriMesh* mesh,
   }
   double total = 0;
   for (const auto& [stage, s] : stats.timings) total += s;
-  std::printf("evaluations: %llu grid (%.2f%% of %llu dense) + %llu refinement, %.2f s\n",
-              static_cast<unsigned long long>(stats.evaluations),
-              100.0 * stats.evaluations / stats.dense_evaluations,
-              static_cast<unsigned long long>(stats.dense_evaluations),
-              static_cast<unsigned long long>(stats.refine_evaluations), total);
+  std::fprintf(summary, "evaluations: %llu grid (%.2f%% of %llu dense) + %llu refinement, %.2f s\n",
+               static_cast<unsigned long long>(stats.evaluations),
+               100.0 * stats.evaluations / stats.dense_evaluations,
+               static_cast<unsigned long long>(stats.dense_evaluations),
+               static_cast<unsigned long long>(stats.refine_evaluations), total);
+  if (stats_out) {
+    std::fwrite(stats_json.data(), 1, stats_json.size(), stdout);
+    if (stats_json.empty() || stats_json.back() != '\n') std::fputc('\n', stdout);
+    std::fflush(stdout);
+  }
 }
 
 }  // namespace qjulia::cli

@@ -23,7 +23,7 @@ struct MeshCommand {
   std::string out;
   Params params;
   std::string params_json;
-  std::optional<std::string> preview, stats_path, vdb;
+  std::optional<std::string> preview, stats_path, vdb;  ///< stats_path "-": standard output
   RenderOptions preview_options;
   PipelineOptions pipeline;  ///< without progress
   std::unique_ptr<ThreadLimit> threads;
