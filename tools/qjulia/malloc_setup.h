@@ -24,7 +24,8 @@ void restart_with_malloc_huge_pages(char** argv);
 /// `render`, `experiment`, `bench`, `explore`); the quick ones are left alone. Meant for the
 /// program's `.preinit_array`, which the dynamic loader runs before any shared library's
 /// initialiser: the process that restarts then does not pay for those (about 12 ms: libhwy's
-/// timer calibration, OpenSSL's configuration, TBB, the C++ runtime).
+/// timer calibration, which hwy_timer.cpp now skips, OpenSSL's configuration, TBB, the C++
+/// runtime).
 void restart_early(int argc, char** argv, char** envp);
 
 /// Fixes malloc's thresholds: blocks up to 32 MiB come from the heap, and the heap hands its free
