@@ -13,6 +13,7 @@ install(DIRECTORY ${PROJECT_SOURCE_DIR}/lib/include/qjulia
 install(TARGETS qjulia_cli EXPORT qjuliaTargets RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 # OpenVDB's module, loaded on first use from <libdir>/qjulia (lib/src/base/vdb_module.h).
 install(TARGETS qjulia_vdb LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}/qjulia)
+install(TARGETS qjulia_http LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}/qjulia)
 if(TARGET qjulia_mpi)
   install(TARGETS qjulia_mpi RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 endif()

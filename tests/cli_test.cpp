@@ -745,5 +745,20 @@ TEST_F(Cli, AMissingOpenVdbModuleStopsTheRunsThatNeedItBeforeTheWork) {
   EXPECT_EQ(files(), std::vector<std::string>{"a.ply"});
 }
 
+// The HTTP library (and OpenSSL, brotli with it) is loaded only by `explore`, from its module;
+// without the module the explorer stops with one line that says where it looked.
+TEST_F(Cli, TheWebServerIsLoadedOnlyByExplore) {
+  const CliRun plain = run("mesh --resolution 24 -o a.ply --quiet", "export LD_DEBUG=files");
+  ASSERT_EQ(plain.code, 0) << plain.err;
+  for (const char* library : {"httplib", "libssl", "brotli", "libqjulia_http"})
+    EXPECT_EQ(plain.err.find(library), std::string::npos) << library;
+  const CliRun r = run("explore --no-browser --port 0",
+                       "export QJULIA_HTTP_MODULE=/nonexistent/libqjulia_http.so");
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.err.find("/nonexistent/libqjulia_http.so"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("QJULIA_HTTP_MODULE"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line, got: " << r.err;
+}
+
 }  // namespace
 }  // namespace qjulia

@@ -1,6 +1,6 @@
 #pragma once
-// The HTTP server of `qjulia explore`. This header keeps the HTTP library out of its includers;
-// server.cpp is the only translation unit that sees it.
+// The HTTP server of `qjulia explore`: its routes, over the transport of libqjulia_http.so
+// (http_module.h), which the command loads when it starts the server.
 #include <functional>
 #include <optional>
 #include <string>
