@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <stdexcept>
+#include <tuple>
 
 #include "qjulia/base/error.h"
 
@@ -236,16 +237,14 @@ void AtomicFile::commit() {
 
 char* BufferedWriter::refill(std::size_t n) {
   flush();
-  if (n > AtomicFile::kStageBytes) {
-    large_.resize(n);
-    begin_ = cur_ = large_.data();
+  if (n <= AtomicFile::kStageBytes) {
+    std::tie(begin_, end_) = file_.room(n);
   } else {
-    const auto [first, last] = file_.room(n);
-    begin_ = cur_ = first;
-    end_ = last;
-    return cur_;
+    large_.resize(n);
+    begin_ = large_.data();
+    end_ = begin_ + n;
   }
-  end_ = begin_ + n;
+  cur_ = begin_;
   return cur_;
 }
 

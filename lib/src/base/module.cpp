@@ -4,6 +4,8 @@
 #include <unistd.h>
 
 #include <cstdlib>
+#include <map>
+#include <mutex>
 #include <stdexcept>
 #include <vector>
 
@@ -40,9 +42,7 @@ std::vector<std::string> candidates(const ModuleSpec& spec) {
   return c;
 }
 
-}  // namespace
-
-const void* load_module(const ModuleSpec& spec) {
+const void* open_module(const ModuleSpec& spec, std::string& error) {
   std::string tried;
   for (const std::string& path : candidates(spec)) {
     void* handle = ::dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
@@ -62,8 +62,25 @@ const void* load_module(const ModuleSpec& spec) {
     }
     return api;  // stays loaded
   }
-  throw std::runtime_error(std::string(spec.what) + " (" + spec.file +
-                           ") could not be loaded (set " + spec.env + " to its path):" + tried);
+  error = std::string(spec.what) + " (" + spec.file + ") could not be loaded (set " + spec.env +
+          " to its path):" + tried;
+  return nullptr;
+}
+
+}  // namespace
+
+const void* load_module(const ModuleSpec& spec) {
+  struct Outcome {
+    const void* api = nullptr;
+    std::string error;
+  };
+  static std::mutex mutex;
+  static std::map<std::string, Outcome> loaded;  // by file name
+  const std::lock_guard<std::mutex> lock(mutex);
+  auto [it, first] = loaded.try_emplace(spec.file);
+  if (first) it->second.api = open_module(spec, it->second.error);
+  if (!it->second.api) throw std::runtime_error(it->second.error);
+  return it->second.api;
 }
 
 }  // namespace qjulia

@@ -5,7 +5,6 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
-#include <mutex>
 #include <nlohmann/json.hpp>
 #include <thread>
 #include <vector>
@@ -100,26 +99,11 @@ struct BoundServer {
 }  // namespace
 
 const HttpApi& http_api() {
-  static std::once_flag once;
-  static const HttpApi* api = nullptr;
-  static std::string error;
-  std::call_once(once, [] {
-    ModuleSpec spec;
-    spec.file = "libqjulia_http.so";
-    spec.env = "QJULIA_HTTP_MODULE";
-    spec.build_path = QJULIA_HTTP_BUILD_PATH;
-    spec.install_path = QJULIA_HTTP_INSTALL_PATH;
-    spec.entry = "qjulia_http_api";
-    spec.version = kHttpApiVersion;
-    spec.what = "qjulia explore's web server";
-    try {
-      api = static_cast<const HttpApi*>(load_module(spec));
-    } catch (const std::runtime_error& e) {
-      error = e.what();
-    }
-  });
-  if (!api) throw std::runtime_error(error);
-  return *api;
+  static const ModuleSpec spec{
+      "libqjulia_http.so",          "QJULIA_HTTP_MODULE", QJULIA_HTTP_BUILD_PATH,
+      QJULIA_HTTP_INSTALL_PATH,     "qjulia_http_api",    kHttpApiVersion,
+      "qjulia explore's web server"};
+  return module_api<HttpApi>(spec);
 }
 
 void serve(const ServerOptions& options, const CancelToken& cancel,

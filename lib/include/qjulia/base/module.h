@@ -19,8 +19,15 @@ struct ModuleSpec {
 
 /// Loads the module and returns what its entry returns; it stays loaded. Looked for, in this
 /// order: the path in `env` when that is set (only there), beside the program or Python module
-/// that links qjulia and in its ../lib/qjulia, `build_path`, `install_path`.
+/// that links qjulia and in its ../lib/qjulia, `build_path`, `install_path`. The first call for
+/// a module decides: later calls (from any thread) give its interface, or throw its error, again.
 /// @throws std::runtime_error naming every path tried and why it failed, and `env`.
 const void* load_module(const ModuleSpec& spec);
+
+/// load_module() as the module's interface type.
+template <class Api>
+const Api& module_api(const ModuleSpec& spec) {
+  return *static_cast<const Api*>(load_module(spec));
+}
 
 }  // namespace qjulia
