@@ -197,29 +197,47 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
   BrickMeasure bm;
   const std::size_t owned = r.edges + r.centres;
   const auto* tri = mesh.triangles.data() + r.face;
-  // Local slots: owned vertices, then foreign ones; each face corner's slot, found once.
-  thread_local std::vector<std::uint32_t> foreign, corner;
+  // Local slots: owned vertices, then foreign ones (in index order); each face corner's slot,
+  // found once. The foreign vertices are found in a small hash table (most corners are owned;
+  // a foreign vertex is a corner of about six faces).
+  thread_local std::vector<std::uint32_t> foreign, corner, comp_of;
+  thread_local std::vector<std::array<std::uint32_t, 2>> table;  // {vertex + 1, slot}; 0: empty
+  thread_local std::vector<std::size_t> taken;                   // its entries in use
+  thread_local detail::UnionFind uf;
+  std::size_t size = 64;
+  while (size < 6 * r.faces) size *= 2;
+  if (table.size() < size) table.assign(size, {0, 0});
+  const std::size_t mask = size - 1;
+  auto find = [&](std::uint32_t v) -> std::array<std::uint32_t, 2>& {
+    for (std::size_t h = (v * 0x9E3779B1u) & mask;; h = (h + 1) & mask)
+      if (table[h][0] == v + 1 || table[h][0] == 0) return table[h];
+  };
   foreign.clear();
+  taken.clear();
   for (std::size_t f = 0; f < r.faces; ++f)
     for (std::uint32_t v : tri[f])
-      if (!r.owns(v)) foreign.push_back(v);
+      if (!r.owns(v)) {
+        auto& e = find(v);
+        if (e[0] == 0) {
+          e[0] = v + 1;
+          foreign.push_back(v);
+          taken.push_back(static_cast<std::size_t>(&e - table.data()));
+        }
+      }
   std::sort(foreign.begin(), foreign.end());
-  foreign.erase(std::unique(foreign.begin(), foreign.end()), foreign.end());
-  auto slot = [&](std::uint32_t v) -> std::uint32_t {
-    if (r.owns(v)) return r.local(v);
-    return static_cast<std::uint32_t>(
-        owned + (std::lower_bound(foreign.begin(), foreign.end(), v) - foreign.begin()));
-  };
+  for (std::size_t k = 0; k < foreign.size(); ++k)
+    find(foreign[k])[1] = static_cast<std::uint32_t>(owned + k);
+  auto slot = [&](std::uint32_t v) -> std::uint32_t { return r.owns(v) ? r.local(v) : find(v)[1]; };
   corner.resize(3 * r.faces);
   for (std::size_t f = 0; f < r.faces; ++f)
     for (int k = 0; k < 3; ++k) corner[3 * f + k] = slot(tri[f][k]);
   const std::size_t slots = owned + foreign.size();
-  detail::UnionFind uf(slots);
+  uf.reset(slots);
   for (std::size_t f = 0; f < r.faces; ++f) {
     uf.unite(corner[3 * f], corner[3 * f + 1]);
     uf.unite(corner[3 * f + 1], corner[3 * f + 2]);
   }
-  std::vector<std::uint32_t> comp_of(slots, UINT32_MAX);
+  comp_of.assign(slots, UINT32_MAX);
   for (std::size_t s = 0; s < comp_of.size(); ++s) {
     const std::uint32_t root = uf.find(static_cast<std::uint32_t>(s));
     if (comp_of[root] == UINT32_MAX) {
@@ -248,6 +266,7 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
     pair_in_matrix(corner.data(), r.faces, slots, border, slot, bm);
   else
     pair_in_table(tri, r.faces, border, bm);
+  for (std::size_t h : taken) table[h] = {0, 0};  // the table is left empty for the next brick
   return bm;
 }
 
