@@ -138,13 +138,53 @@ HWY_INLINE void each_group(std::index_sequence<I...>, F&& f) {
 // real part (3); the metric and exit as step_metric().
 template <int kAdd, bool kEscape>
 HWY_INLINE Q single_op_step(const Q& h, const Q& c, const Q& lit, V r2, V& metric, M& exit) {
-  Q q = sqr(h);
-  if (kAdd == 1) q = add(q, lit);
-  if (kAdd == 2) q = add(q, c);
-  if (kAdd == 3) q.w = hn::Add(q.w, lit.w);
+  // h^2 with the addition folded into its multiply-adds (as the reference kernel does).
+  const Q& k = kAdd == 2 ? c : lit;
+  const V t = hn::Add(h.w, h.w);
+  const V ww = kAdd == 0 ? hn::Mul(h.w, h.w) : hn::MulAdd(h.w, h.w, k.w);
+  Q q;
+  q.w = hn::NegMulAdd(h.z, h.z, hn::NegMulAdd(h.y, h.y, hn::NegMulAdd(h.x, h.x, ww)));
+  if (kAdd == 1 || kAdd == 2) {
+    q.x = hn::MulAdd(t, h.x, k.x);
+    q.y = hn::MulAdd(t, h.y, k.y);
+    q.z = hn::MulAdd(t, h.z, k.z);
+  } else {
+    q.x = hn::Mul(t, h.x);
+    q.y = hn::Mul(t, h.y);
+    q.z = hn::Mul(t, h.z);
+  }
   metric = step_metric<kEscape>(q, h, r2, exit);
   return q;
 }
+
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+// single_op_step() whose new iterate is 0 in the lanes outside `run` (the orbits that have
+// decided compute on from 0 until they are refilled: no overflow or subnormal values on the
+// way), the masking folded into the last operation of each component.
+template <int kAdd, bool kEscape>
+HWY_INLINE Q single_op_step_masked(__mmask8 run, const Q& h, const Q& c, const Q& lit, V r2,
+                                   V& metric, M& exit) {
+  const Q& k = kAdd == 2 ? c : lit;
+  const __m512d t = _mm512_add_pd(h.w.raw, h.w.raw);
+  __m512d w =
+      kAdd == 0 ? _mm512_mul_pd(h.w.raw, h.w.raw) : _mm512_fmadd_pd(h.w.raw, h.w.raw, k.w.raw);
+  w = _mm512_fnmadd_pd(h.x.raw, h.x.raw, w);
+  w = _mm512_fnmadd_pd(h.y.raw, h.y.raw, w);
+  Q q;
+  q.w = V{_mm512_maskz_fnmadd_pd(run, h.z.raw, h.z.raw, w)};
+  if (kAdd == 1 || kAdd == 2) {
+    q.x = V{_mm512_maskz_fmadd_pd(run, t, h.x.raw, k.x.raw)};
+    q.y = V{_mm512_maskz_fmadd_pd(run, t, h.y.raw, k.y.raw)};
+    q.z = V{_mm512_maskz_fmadd_pd(run, t, h.z.raw, k.z.raw)};
+  } else {
+    q.x = V{_mm512_maskz_mul_pd(run, t, h.x.raw)};
+    q.y = V{_mm512_maskz_mul_pd(run, t, h.y.raw)};
+    q.z = V{_mm512_maskz_mul_pd(run, t, h.z.raw)};
+  }
+  metric = step_metric<kEscape>(q, h, r2, exit);
+  return q;
+}
+#endif
 
 // 1 / n for a squared norm n: the fast reciprocal where n is a normal number, a division
 // elsewhere (0, subnormal, inf), so poles and overflow come out as in the scalar path.
@@ -832,7 +872,8 @@ class Machine {
           V metric;
           M exit;
           const __mmask8 run = live[g];
-          const Q q = single_op_step<kAdd, kEscape>(h[g], c[g], lit, r2, metric, exit);
+          // Lanes outside `run` (decided, or idle) compute 0.
+          const Q q = single_op_step_masked<kAdd, kEscape>(run, h[g], c[g], lit, r2, metric, exit);
           k[g] = V{_mm512_mask_add_pd(k[g].raw, run, k[g].raw, one.raw)};
           ext[g] = V{kEscape ? _mm512_mask_max_pd(ext[g].raw, run, ext[g].raw, metric.raw)
                              : _mm512_mask_min_pd(ext[g].raw, run, ext[g].raw, metric.raw)};
@@ -842,10 +883,7 @@ class Machine {
           left[g] |= now & exit.raw;
           live[g] = run & static_cast<__mmask8>(~now);
           pending[g] |= now;
-          h[g] = {V{_mm512_mask_mov_pd(q.w.raw, now, zero.raw)},
-                  V{_mm512_mask_mov_pd(q.x.raw, now, zero.raw)},
-                  V{_mm512_mask_mov_pd(q.y.raw, now, zero.raw)},
-                  V{_mm512_mask_mov_pd(q.z.raw, now, zero.raw)}};
+          h[g] = q;  // a lane decided now is zeroed at the next step
         });
       }
       // Decided lanes to the finished orbits; refilled once enough of a vector waits.
