@@ -42,7 +42,8 @@ struct BrickMeasure {
     std::array<double, 3> lo{HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
   };
   std::vector<Comp> comps;
-  std::vector<std::array<std::uint32_t, 2>> links;  // (foreign vertex, local comp)
+  // (foreign vertex, local comp); link_components() makes them pairs of whole-mesh components.
+  std::vector<std::array<std::uint32_t, 2>> links;
 };
 
 // The vertices and faces of one brick in the mesh: edge vertices [edge, edge + edges), centre
@@ -765,35 +766,45 @@ struct BrickMesher {
     verts.shrink_to_fit();
     std::vector<std::uint64_t> edge_start(nv);
     for (std::size_t i = 0; i < nv; ++i) edge_start[i] = range[i].edge;
-    comps.reserve(comp_first[nb]);
+    comps.resize(comp_first[nb]);
     uf.reset(comm ? 0 : comp_first[nb]);
-    if (comm) {
-      std::size_t n = 0;
-      for (std::size_t i = 0; i < nb; ++i) n += bm[i].links.size();
-      links.reserve(n);
-    }
-    for (std::size_t i = 0; i < nb; ++i) {
-      for (const auto& [v, c] : bm[i].links) {
+    // In parallel, each brick's links become pairs of whole-mesh components (the component of
+    // the shared vertex in place of the vertex), each pair once (many shared vertices join the
+    // same two components), and its components go to their place in `comps`.
+    tbb::parallel_for(std::size_t{0}, nb, [&](std::size_t i) {
+      auto& own = bm[i].links;
+      for (auto& link : own) {
+        const std::uint32_t v = link[0];
         const std::size_t owner =
             std::upper_bound(edge_start.begin(), edge_start.end(), v) - edge_start.begin() - 1;
         const std::uint64_t other =
             owner < nb
                 ? comp_before + comp_first[owner] + bm[owner].owned_comp[v - range[owner].edge]
                 : ghost_comp_first[owner] + ghost_owned_comp[owner][v - range[owner].edge];
-        const auto a = static_cast<std::uint32_t>(comp_before + comp_first[i] + c);
-        if (comm)
-          links.push_back({a, static_cast<std::uint32_t>(other)});
-        else
-          uf.unite(a, static_cast<std::uint32_t>(other));
+        link = {static_cast<std::uint32_t>(comp_before + comp_first[i] + link[1]),
+                static_cast<std::uint32_t>(other)};
       }
-      comps.insert(comps.end(), bm[i].comps.begin(), bm[i].comps.end());
+      std::sort(own.begin(), own.end());
+      own.erase(std::unique(own.begin(), own.end()), own.end());
+      std::copy(bm[i].comps.begin(), bm[i].comps.end(), comps.begin() + comp_first[i]);
+    });
+    // Joined in order (one process), or kept for rank 0.
+    if (comm) {
+      std::size_t n = 0;
+      for (std::size_t i = 0; i < nb; ++i) n += bm[i].links.size();
+      links.reserve(n);
+    }
+    for (std::size_t i = 0; i < nb; ++i) {
+      for (const auto& link : bm[i].links)
+        if (comm)
+          links.push_back(link);
+        else
+          uf.unite(link[0], link[1]);
       m.edges += bm[i].edges + border_edges[i];
       problems += bm[i].problems + border_problems[i];
       degenerate += bm[i].degenerate;
-      // Its vertices' components were needed by this brick and the ones before (a brick's
-      // links go to its own vertices and to its +x, +y, +z neighbours', later in key order).
-      bm[i] = BrickMeasure();
     }
+    tbb::parallel_for(std::size_t{0}, nb, [&](std::size_t i) { bm[i] = BrickMeasure(); });
     bm.clear();
     bm.shrink_to_fit();
     if (opts.return_free_memory) malloc_trim(0);
