@@ -205,6 +205,10 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
   thread_local std::vector<std::array<std::uint32_t, 2>> table;  // {vertex + 1, slot}; 0: empty
   thread_local std::vector<std::size_t> taken;                   // its entries in use
   thread_local detail::UnionFind uf;
+  // The entries the last brick filled are emptied first (also after an exception left them),
+  // and each entry is recorded in `taken` before it is filled.
+  for (std::size_t h : taken) table[h] = {0, 0};
+  taken.clear();
   std::size_t size = 64;
   while (size < 6 * r.faces) size *= 2;
   if (table.size() < size) table.assign(size, {0, 0});
@@ -214,15 +218,14 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
       if (table[h][0] == v + 1 || table[h][0] == 0) return table[h];
   };
   foreign.clear();
-  taken.clear();
   for (std::size_t f = 0; f < r.faces; ++f)
     for (std::uint32_t v : tri[f])
       if (!r.owns(v)) {
         auto& e = find(v);
         if (e[0] == 0) {
-          e[0] = v + 1;
-          foreign.push_back(v);
           taken.push_back(static_cast<std::size_t>(&e - table.data()));
+          foreign.push_back(v);
+          e[0] = v + 1;
         }
       }
   std::sort(foreign.begin(), foreign.end());
@@ -267,7 +270,6 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
     pair_in_matrix(corner.data(), r.faces, slots, border, slot, bm);
   else
     pair_in_table(tri, r.faces, border, bm);
-  for (std::size_t h : taken) table[h] = {0, 0};  // the table is left empty for the next brick
   return bm;
 }
 
