@@ -122,6 +122,25 @@ class Cli : public ::testing::Test {
 // ---------------------------------------------------------------------------------------------
 // Bad input to `qjulia mesh`: exit 2, one line, no file
 
+// The dynamic loader looks for the program's libraries in absolute folders only: an empty or
+// relative entry of its run path would be the current folder, where a library of the same name
+// would be loaded instead (the loader's own log names every file it tries).
+TEST_F(Cli, LoadsItsLibrariesFromAbsoluteFoldersOnly) {
+  const CliRun r = run("--version", "export LD_DEBUG=libs QJULIA_HUGE_PAGES=0");
+  ASSERT_EQ(r.code, 0) << r.err;
+  std::istringstream log(r.err);
+  int tried = 0;
+  for (std::string line; std::getline(log, line);) {
+    const std::size_t at = line.find("trying file=");
+    if (at == std::string::npos) continue;
+    ++tried;
+    const std::string file = line.substr(at + 12);
+    EXPECT_EQ(file.rfind('/', 0), 0u) << "a library looked for in the current folder: " << file;
+  }
+  EXPECT_GT(tried, 0) << "the loader's log was expected on stderr: " << r.err;
+  EXPECT_EQ(files(), std::vector<std::string>{});
+}
+
 TEST_F(Cli, MeshRejectsAMalformedFormulaNamingTheColumn) {
   expect_rejected("mesh --formula 'h^' --resolution 16 -o out.ply", "1:3");
 }
