@@ -526,13 +526,18 @@ struct BrickSampler::Impl {
     }
     deposit(*n, r, out);
   }
+  // A bit already in the inbox is not set again: the inbox is only emptied by the brick's own
+  // visit, in another class, so a plain load sees it, and the atomic write (a locked bus
+  // operation on a neighbour's cache line) is saved.
   static void deposit(Brick& n, const Request& r, Outbox& out) {
     bool fresh = false;
-    if (r.refine4 & static_cast<std::uint8_t>(~n.refine4))
-      fresh = (n.inbox4.fetch_or(r.refine4) & r.refine4) != r.refine4 || fresh;
+    const std::uint8_t want4 = r.refine4 & static_cast<std::uint8_t>(~n.refine4);
+    if (want4 && (n.inbox4.load(std::memory_order_relaxed) & want4) != want4)
+      fresh = (n.inbox4.fetch_or(want4) & want4) != want4;
     if (r.cell != 0xffff && !n.visited.test(r.cell)) {
       const std::uint64_t bit = std::uint64_t{1} << (r.cell & 63);
-      fresh = !(n.inbox_cells[r.cell >> 6].fetch_or(bit) & bit) || fresh;
+      std::atomic<std::uint64_t>& box = n.inbox_cells[r.cell >> 6];
+      if (!(box.load(std::memory_order_relaxed) & bit)) fresh = !(box.fetch_or(bit) & bit) || fresh;
     }
     if (fresh && !n.scheduled.exchange(true)) out.schedule.push_back(&n);
   }
@@ -666,6 +671,8 @@ struct BrickSampler::Impl {
     for (int q = 0; q < 8; ++q)
       if (flag_cube(br, (q & 1) * 4, ((q >> 1) & 1) * 4, (q >> 2) * 4, 4, false, v.real))
         br.flagged4 |= static_cast<std::uint8_t>(1u << q);
+    // The 4-cells asked of each neighbour (by its offset), one request per neighbour.
+    std::uint8_t ask[27] = {};
     for (int q = 0; q < 8; ++q) {
       if (!(br.flagged4 >> q & 1)) continue;
       const int c[3] = {q & 1, (q >> 1) & 1, q >> 2};
@@ -676,15 +683,15 @@ struct BrickSampler::Impl {
             const int bo[3] = {floor_div(n[0], 2), floor_div(n[1], 2), floor_div(n[2], 2)};
             const int lq =
                 (n[0] - 2 * bo[0]) | ((n[1] - 2 * bo[1]) << 1) | ((n[2] - 2 * bo[2]) << 2);
-            if (bo[0] == 0 && bo[1] == 0 && bo[2] == 0) {
-              v.seed4 |= static_cast<std::uint8_t>(1u << lq);
-            } else {
-              const int nb[3] = {br.at.x + bo[0], br.at.y + bo[1], br.at.z + bo[2]};
-              if (!in_range(nb)) continue;
-              deliver(v.a, br,
-                      {brick_key(nb[0], nb[1], nb[2]), static_cast<std::uint8_t>(1u << lq)}, out);
-            }
+            ask[(bo[0] + 1) * 9 + (bo[1] + 1) * 3 + bo[2] + 1] |=
+                static_cast<std::uint8_t>(1u << lq);
           }
+    }
+    v.seed4 |= ask[13];
+    for (int o = 0; o < 27; ++o) {
+      if (o == 13 || !ask[o]) continue;
+      const int nb[3] = {br.at.x + o / 9 - 1, br.at.y + (o / 3) % 3 - 1, br.at.z + o % 3 - 1};
+      if (in_range(nb)) deliver(v.a, br, {brick_key(nb[0], nb[1], nb[2]), ask[o]}, out);
     }
   }
 
@@ -1011,13 +1018,25 @@ struct BrickSampler::Sampling {
         made.push_back(b.get());
         bricks[b->key] = std::move(b);
       }
+    if (before == 0) {
+      // All bricks are new: each looks up its upper 13 neighbours and links both ways (a slot is
+      // written by one brick only: the neighbour at its offset).
+      tbb::parallel_for(std::size_t{0}, made.size(), [&](std::size_t i) {
+        Brick& b = *made[i];
+        for (int o = 14; o < 27; ++o)
+          if (Brick* n = bricks.find(neighbour_key(b, o))) {
+            b.around[o] = n;
+            n->around[26 - o] = &b;
+          }
+      });
+      return;
+    }
     // Each new brick links its own neighbours; bricks that existed before link back to it.
     tbb::parallel_for(std::size_t{0}, made.size(), [&](std::size_t i) {
       Brick& b = *made[i];
       for (int o = 0; o < 27; ++o)
         if (o != 13) b.around[o] = bricks.find(neighbour_key(b, o));
     });
-    if (before == 0) return;
     // Slots of older bricks that point to new ones: each is one new brick's (its offset).
     std::vector<std::uint64_t> made_keys(made.size());
     for (std::size_t i = 0; i < made.size(); ++i) made_keys[i] = made[i]->key;  // in key order
