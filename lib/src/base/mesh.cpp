@@ -1,5 +1,6 @@
 #include "qjulia/base/mesh.h"
 
+#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 #include <tbb/task_arena.h>
@@ -210,8 +211,14 @@ std::vector<std::array<float, 3>> area_weighted_normals(const TriMesh& mesh) {
   auto position = [&](std::uint32_t v) -> const auto& { return mesh.positions[v]; };
   constexpr std::size_t kBlock = std::size_t{1} << 18;
   std::vector<std::array<float, 3>> face(std::min(kBlock, nf));
-  const std::size_t lanes =
-      std::max<std::size_t>(1, static_cast<std::size_t>(tbb::this_task_arena::max_concurrency()));
+  // One lane per thread that may run (the arena's size ignores a global_control limit such as
+  // --threads 1, and each lane scans every face); a power of two, so a vertex's lane is a mask.
+  const std::size_t threads = std::min<std::size_t>(
+      static_cast<std::size_t>(std::max(1, tbb::this_task_arena::max_concurrency())),
+      tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+  std::size_t lanes = 1;
+  while (lanes * 2 <= threads) lanes *= 2;
+  const std::uint32_t lane_mask = static_cast<std::uint32_t>(lanes - 1);
   for (std::size_t first = 0; first < nf; first += kBlock) {
     const std::size_t n = std::min(kBlock, nf - first);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096),
@@ -222,7 +229,7 @@ std::vector<std::array<float, 3>> area_weighted_normals(const TriMesh& mesh) {
     tbb::parallel_for(std::size_t{0}, lanes, [&](std::size_t lane) {
       for (std::size_t f = 0; f < n; ++f)
         for (std::uint32_t v : mesh.triangles[first + f])
-          if ((v >> 6) % lanes == lane)
+          if (((v >> 6) & lane_mask) == lane)
             for (int k = 0; k < 3; ++k) normals[v][k] += face[f][k];
     });
   }
