@@ -64,6 +64,13 @@ void expect_estimate_within_1_5x(const std::string& preset, int resolution) {
   const double actual = r.stats["faces"].get<double>();
   EXPECT_LE(faces, 1.5 * actual);
   EXPECT_GE(faces, actual / 1.5);
+  // The memory bound by the output: newton-cubic peaks at most at twice its mesh (12 bytes a
+  // vertex and a face) + 150 MB.
+  if (preset == "newton-cubic" && resolution >= 512) {
+    const double mesh_bytes = 12 * (r.stats["vertices"].get<double>() + actual);
+    EXPECT_LE(peak, 2 * mesh_bytes + 150e6)
+        << "peak " << peak / 1e6 << " MB, mesh " << mesh_bytes / 1e6 << " MB";
+  }
 }
 
 TEST(Estimate, PeakMemoryWithinOneAndAHalfTimesAt256And512) {

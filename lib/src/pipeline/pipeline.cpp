@@ -193,6 +193,7 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
 
   ExtractOptions eopts = extract_options(params, opts, timer);
   eopts.return_free_memory = sopts.return_free_memory;
+  eopts.memory_limit = stats.memory_limit;
   ExtractStats estats;
   TriMesh mesh =
       opts.keep_grid ? extract(grid, eopts, &estats) : extract(std::move(grid), eopts, &estats);

@@ -3,6 +3,7 @@
 /// Surface extraction: marching cubes over the sampled cells, vertices refined onto the exact
 /// classification boundary, outward orientation.
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -18,9 +19,14 @@ struct ExtractOptions {
   double tolerance = 0.02;
   /// At most this many classifier calls per vertex.
   int max_refine_steps = 24;
-  /// Hand the memory freed between passes back to the system (malloc_trim): lowers the peak of a
-  /// large run, costs time on a small one (run_pipeline decides from its estimate).
+  /// Hand the memory freed between passes back to the system (malloc_trim) when the resident
+  /// memory would otherwise pass twice the mesh (12 bytes a vertex and a face) + 150 MB, or
+  /// memory_limit: lowers the peak of a large run, costs time (run_pipeline decides from its
+  /// estimate).
   bool return_free_memory = true;
+  /// The memory the run may use, bytes (0: not known): with return_free_memory, the passes keep
+  /// within it too.
+  std::size_t memory_limit = 0;
   /// Per-vertex colours (left empty for kNone).
   ColorMode color = ColorMode::kNone;
   /// Progress in [0, 1]; return false to cancel.
