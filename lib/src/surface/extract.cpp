@@ -367,13 +367,16 @@ std::size_t memory_budget(const ExtractOptions& opts, std::size_t vertices, std:
 
 // Hands the memory freed between passes back to the system (malloc_trim) when the resident
 // memory, `coming` (what the next pass allocates) and a margin for the rest would pass `budget`
-// (always when it is 0: not known yet). A trim costs one madvise per free run of pages, serial,
-// and the pages are faulted in again when reused: newton-cubic at 512 on two threads trimmed
-// 826 MB in 21,000 calls after every pass.
+// (always when it is 0, not known yet, or the resident memory is not known). A trim costs one
+// madvise per free run of pages, serial, and the pages are faulted in again when reused:
+// newton-cubic at 512 on two threads trimmed 826 MB in 21,000 calls after every pass.
 void give_back_memory(const ExtractOptions& opts, std::size_t budget, std::size_t coming) {
   if (!opts.return_free_memory) return;
   const std::size_t margin = std::max<std::size_t>(std::size_t{64} << 20, budget / 8);
-  if (budget && current_rss_bytes() + coming + margin <= budget) return;
+  if (budget) {
+    const std::size_t resident = current_rss_bytes();  // 0 when unknown: trim
+    if (resident > 0 && resident + coming + margin <= budget) return;
+  }
   malloc_trim(0);
 }
 
