@@ -124,6 +124,40 @@ TEST(Estimate, RefusesAGlbBeyondFourGibibytesBeforeTheWork) {
   EXPECT_NO_THROW(check_run(p, plan, estimate_run(p, plan), unlimited));
 }
 
+// The resolution a memory refusal offers is one the run then accepts: in memory and in its output
+// formats (a GLB of the largest resolution that fits in 64 GiB would pass GLB's 4 GiB).
+TEST(Estimate, TheLargestResolutionOfferedFitsTheOutputFormatsToo) {
+  Params p = preset("unit-ball");
+  p.resolution = 100000;
+  MemoryLimits limits;
+  limits.requested = std::size_t(64) << 30;
+  for (MeshFormat format : {MeshFormat::kGlb, MeshFormat::kPly}) {
+    RunPlan plan;
+    plan.outputs = {format};
+    std::string what;
+    try {
+      check_run(p, plan, estimate_run(p, plan), limits);
+      ADD_FAILURE() << "resolution 100000 was accepted";
+    } catch (const TooLarge& error) {
+      what = error.what();
+    }
+    const auto at = what.find("the largest resolution that fits is ");
+    ASSERT_NE(at, std::string::npos) << what;
+    const int fits = std::stoi(what.substr(at + 36));
+    ASSERT_GT(fits, 256) << what;
+    Params q = p;
+    q.resolution = fits;
+    EXPECT_NO_THROW(check_run(q, plan, estimate_run(q, plan), limits)) << what;
+    q.resolution = fits * 11 / 10;
+    EXPECT_THROW(check_run(q, plan, estimate_run(q, plan), limits), TooLarge) << what;
+    // GLB's 4 GiB holds fewer faces than 64 GiB of memory makes: it is what binds, and the
+    // message says so; PLY is bound by the memory alone.
+    EXPECT_EQ(what.find("held back by GLB's 4 GiB") != std::string::npos,
+              format == MeshFormat::kGlb)
+        << what;
+  }
+}
+
 TEST(Estimate, ScalesWithTheResolution) {
   // A sphere's crossing cells grow as the square of the resolution.
   Params p = preset("unit-ball");

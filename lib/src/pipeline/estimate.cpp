@@ -70,6 +70,39 @@ std::string rounded(double x) {
   return buf;
 }
 
+// What an output format cannot hold: the limit's short name and the refusal (both empty when
+// the outputs hold the mesh of `e`).
+struct FormatLimit {
+  std::string name, message;
+};
+
+FormatLimit format_limit(const Params& params, const RunPlan& plan, const RunEstimate& e) {
+  // The vertices of a TriMesh are numbered in 32 bits; PLY's indices are signed.
+  const double vertices = static_cast<double>(e.vertices);
+  if (vertices > 4294967295.0)
+    return {"32-bit vertex numbers",
+            "the mesh would have about " + rounded(vertices) +
+                " vertices, more than 32-bit indices can number; lower the resolution"};
+  for (MeshFormat f : plan.outputs) {
+    const double final_vertices = 0.5 * static_cast<double>(e.final_faces);
+    if (f == MeshFormat::kPly && final_vertices > 2147483647.0)
+      return {"PLY's indices", "the mesh would have about " + rounded(final_vertices) +
+                                   " vertices, more than PLY's signed 32-bit indices hold; write "
+                                   ".obj or .stl, or reduce it with --faces"};
+    if (f == MeshFormat::kGlb) {
+      const double bytes = file_bytes(f, static_cast<double>(e.final_faces), final_vertices,
+                                      params.mesh.color != ColorMode::kNone);
+      if (bytes > kGlbLimit)
+        return {"GLB's 4 GiB",
+                "the mesh would make a GLB of about " + format_bytes(bytes) + " (" +
+                    rounded(static_cast<double>(e.final_faces)) +
+                    " faces, estimated); GLB holds at most 4 GiB: write .gltf (its buffer is a "
+                    "separate .bin), .ply, .obj or .stl, or reduce it with --faces"};
+    }
+  }
+  return {};
+}
+
 }  // namespace
 
 RunEstimate estimate_at(const Params& params, const RunPlan& plan, const RunEstimate& base,
@@ -161,7 +194,10 @@ RunEstimate estimate_run(const Solid& solid, const RunPlan& plan) {
 
 int largest_fitting_resolution(const Params& params, const RunPlan& plan, const RunEstimate& base,
                                std::size_t bytes) {
-  auto fits = [&](int r) { return estimate_at(params, plan, base, r).peak_bytes <= bytes; };
+  auto fits = [&](int r) {
+    const RunEstimate e = estimate_at(params, plan, base, r);
+    return e.peak_bytes <= bytes && format_limit(params, plan, e).name.empty();
+  };
   if (!fits(1)) return 0;
   int lo = 1, hi = 2;
   while (hi < 1000000 && fits(hi)) {
@@ -187,38 +223,26 @@ void check_run(const Params& params, const RunPlan& plan, const RunEstimate& e,
       Params q = params;
       q.resolution = fits;
       const RunEstimate own = estimate_run(q, plan);
-      if (own.peak_bytes <= limit) break;
+      if (own.peak_bytes <= limit && format_limit(q, plan, own).name.empty()) break;
       fits = std::min(fits - 1, largest_fitting_resolution(q, plan, own, limit));
+    }
+    // Where an output format, not the memory, is what stops the next resolution: said so.
+    std::string bound;
+    if (fits > 0) {
+      const RunEstimate next = estimate_at(params, plan, e, fits + 1);
+      const FormatLimit format = format_limit(params, plan, next);
+      if (next.peak_bytes <= limit && !format.name.empty()) bound = ", held back by " + format.name;
     }
     throw TooLarge("resolution " + std::to_string(params.resolution) + " needs about " +
                    format_bytes(static_cast<double>(e.peak_bytes)) + " (estimated, " +
                    rounded(static_cast<double>(e.faces)) + " faces) but " + limits.describe() +
                    " is available; " +
-                   (fits > 0 ? "the largest resolution that fits is " + std::to_string(fits)
+                   (fits > 0 ? "the largest resolution that fits is " + std::to_string(fits) + bound
                              : std::string("no resolution fits")) +
                    " (--max-memory sets the limit)");
   }
-  // The vertices of a TriMesh are numbered in 32 bits; PLY's indices are signed.
-  const double vertices = static_cast<double>(e.vertices);
-  if (vertices > 4294967295.0)
-    throw TooLarge("the mesh would have about " + rounded(vertices) +
-                   " vertices, more than 32-bit indices can number; lower the resolution");
-  for (MeshFormat f : plan.outputs) {
-    const double final_vertices = 0.5 * static_cast<double>(e.final_faces);
-    if (f == MeshFormat::kPly && final_vertices > 2147483647.0)
-      throw TooLarge("the mesh would have about " + rounded(final_vertices) +
-                     " vertices, more than PLY's signed 32-bit indices hold; write .obj or "
-                     ".stl, or reduce it with --faces");
-    if (f == MeshFormat::kGlb) {
-      const double bytes = file_bytes(f, static_cast<double>(e.final_faces), final_vertices,
-                                      params.mesh.color != ColorMode::kNone);
-      if (bytes > kGlbLimit)
-        throw TooLarge("the mesh would make a GLB of about " + format_bytes(bytes) + " (" +
-                       rounded(static_cast<double>(e.final_faces)) +
-                       " faces, estimated); GLB holds at most 4 GiB: write .gltf (its buffer "
-                       "is a separate .bin), .ply, .obj or .stl, or reduce it with --faces");
-    }
-  }
+  const FormatLimit format = format_limit(params, plan, e);
+  if (!format.message.empty()) throw TooLarge(format.message);
 }
 
 }  // namespace qjulia

@@ -53,14 +53,15 @@ RunEstimate estimate_run(const Solid& solid, const RunPlan& plan);
 RunEstimate estimate_at(const Params& params, const RunPlan& plan, const RunEstimate& base,
                         int resolution);
 
-/// The largest resolution whose estimated peak fits in `bytes` (0 when none does).
+/// The largest resolution whose estimated peak fits in `bytes` and whose mesh every output
+/// format of `plan` can hold (0 when none does).
 int largest_fitting_resolution(const Params& params, const RunPlan& plan, const RunEstimate& base,
                                std::size_t bytes);
 
 /// Refuses the run before it starts: TooLarge when the estimated peak exceeds the effective
-/// limit (the message gives the estimate, the limit and the largest resolution that fits);
-/// InvalidInput when an output format cannot hold the mesh (GLB's 4 GiB, 32-bit indices),
-/// naming a format that can.
+/// limit (the message gives the estimate, the limit and the largest resolution that fits, in
+/// memory and in the output formats); TooLarge too when an output format cannot hold the mesh
+/// (GLB's 4 GiB, 32-bit indices), naming a format that can.
 void check_run(const Params& params, const RunPlan& plan, const RunEstimate& estimate,
                const MemoryLimits& limits);
 
