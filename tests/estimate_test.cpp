@@ -6,6 +6,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -122,6 +123,32 @@ TEST(Estimate, RefusesAGlbBeyondFourGibibytesBeforeTheWork) {
   p.mesh.faces = 1000000;
   plan.outputs = {MeshFormat::kGlb};
   EXPECT_NO_THROW(check_run(p, plan, estimate_run(p, plan), unlimited));
+}
+
+// Binary STL counts its triangles in 32 bits: a mesh of more faces (but fewer than 2^32
+// vertices) is refused before the work as STL, and accepted as OBJ.
+TEST(Estimate, RefusesAnStlOfMoreThanFourBillionFaces) {
+  Params p = preset("unit-ball");
+  p.resolution = 512;
+  RunPlan plan;
+  plan.outputs = {MeshFormat::kStl};
+  const RunEstimate base = estimate_run(p, plan);
+  // The resolution where the estimate reaches six billion faces (3 billion vertices).
+  const double r = 512 * std::pow(6e9 / double(base.faces), 1 / base.exponent);
+  p.resolution = static_cast<int>(r);
+  const RunEstimate e = estimate_at(p, plan, base, p.resolution);
+  ASSERT_GT(double(e.faces), 4294967295.0);
+  ASSERT_LT(double(e.vertices), 4294967295.0);
+  MemoryLimits unlimited;
+  try {
+    check_run(p, plan, e, unlimited);
+    ADD_FAILURE() << "an STL of " << e.faces << " faces was accepted";
+  } catch (const TooLarge& error) {
+    EXPECT_NE(std::string(error.what()).find("STL's 32-bit count"), std::string::npos)
+        << error.what();
+  }
+  plan.outputs = {MeshFormat::kObj};
+  EXPECT_NO_THROW(check_run(p, plan, estimate_at(p, plan, base, p.resolution), unlimited));
 }
 
 // The resolution a memory refusal offers is one the run then accepts: in memory and in its output

@@ -8,6 +8,7 @@
 #include "io/records.h"
 #include "io/text.h"
 #include "qjulia/base/atomic_file.h"
+#include "qjulia/base/error.h"
 
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
               "the STL writer and reader assume a little-endian host");
@@ -51,6 +52,10 @@ void put_stl_face(char* p, const std::array<float, 3>& a, const std::array<float
 
 void write_stl(const std::string& path, const ExportData& data) {
   const TriMesh& mesh = data.mesh;
+  // Binary STL counts its triangles in 32 bits.
+  if (mesh.triangles.size() > UINT32_MAX)
+    throw InvalidInput(path + ": the mesh has " + std::to_string(mesh.triangles.size()) +
+                       " faces, more than binary STL's 32-bit count holds; write .obj");
   AtomicFile file(path, data.cancel);
   BufferedWriter out(file);
   out.put(stl_header(data, uint32_t(mesh.triangles.size())));

@@ -89,6 +89,11 @@ FormatLimit format_limit(const Params& params, const RunPlan& plan, const RunEst
       return {"PLY's indices", "the mesh would have about " + rounded(final_vertices) +
                                    " vertices, more than PLY's signed 32-bit indices hold; write "
                                    ".obj or .stl, or reduce it with --faces"};
+    if (f == MeshFormat::kStl && static_cast<double>(e.final_faces) > 4294967295.0)
+      return {"STL's triangle count", "the mesh would have about " +
+                                          rounded(static_cast<double>(e.final_faces)) +
+                                          " faces, more than binary STL's 32-bit count holds; "
+                                          "write .obj, or reduce it with --faces"};
     if (f == MeshFormat::kGlb) {
       const double bytes = file_bytes(f, static_cast<double>(e.final_faces), final_vertices,
                                       params.mesh.color != ColorMode::kNone);
