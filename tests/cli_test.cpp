@@ -764,6 +764,32 @@ TEST_F(Cli, AMissingOpenVdbModuleStopsTheRunsThatNeedItBeforeTheWork) {
   EXPECT_EQ(files(), std::vector<std::string>{"a.ply"});
 }
 
+// lib3mf (and libzip, libcrypto with it) is loaded only by the runs that write or read a 3MF,
+// from its module; a run that needs it and cannot load it stops before the work, says where it
+// looked, and writes nothing.
+TEST_F(Cli, Lib3mfIsLoadedOnlyByTheRunsThatNeedIt) {
+  const CliRun plain = run("mesh --resolution 24 -o a.ply --quiet", "export LD_DEBUG=files");
+  ASSERT_EQ(plain.code, 0) << plain.err;
+  for (const char* library : {"lib3MF", "libzip", "libcrypto", "libqjulia_3mf"})
+    EXPECT_EQ(plain.err.find(library), std::string::npos) << library;
+  const CliRun written = run("mesh --resolution 24 -o b.3mf --quiet", "export LD_DEBUG=files");
+  ASSERT_EQ(written.code, 0) << written.err;
+  EXPECT_NE(written.err.find("libqjulia_3mf.so"), std::string::npos);
+  EXPECT_NE(written.err.find("lib3MF"), std::string::npos);
+  const CliRun read = run("compare b.3mf a.ply");
+  EXPECT_EQ(read.code, 0) << read.err;
+  const std::string missing = "export QJULIA_3MF_MODULE=/nonexistent/libqjulia_3mf.so";
+  const CliRun r = run("mesh --resolution 24 -o c.3mf --quiet", missing);
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.err.find("/nonexistent/libqjulia_3mf.so"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("QJULIA_3MF_MODULE"), std::string::npos) << r.err;
+  EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << "one line, got: " << r.err;
+  EXPECT_FALSE(fs::exists(work_ / "c.3mf"));
+  const CliRun compare = run("compare b.3mf a.ply", missing);
+  EXPECT_NE(compare.code, 0);
+  EXPECT_NE(compare.err.find("QJULIA_3MF_MODULE"), std::string::npos) << compare.err;
+}
+
 // The HTTP library (and OpenSSL, brotli with it) is loaded only by `explore`, from its module;
 // without the module the explorer stops with one line that says where it looked.
 TEST_F(Cli, TheWebServerIsLoadedOnlyByExplore) {

@@ -1,5 +1,6 @@
 #include "qjulia/pipeline/pipeline.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <nlohmann/json.hpp>
@@ -9,6 +10,7 @@
 #include "base/vdb_module.h"
 #include "grid/grid_impl.h"
 #include "io/part_writer.h"
+#include "io/threemf_module.h"
 #include "pipeline/dust.h"
 #include "qjulia/base/error.h"
 #include "qjulia/base/memory.h"
@@ -169,8 +171,11 @@ std::string empty_solid_message(const Params& params) {
 
 PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   const Solid solid(params);  // validates and compiles, once for the whole run
-  // OpenVDB's module, when the run will need it: a missing one stops the run before the work.
+  // The modules the run will need (OpenVDB's, lib3mf's): a missing one stops the run before the
+  // work.
   if (opts.keep_grid || params.print.min_thickness_mm) detail::vdb_api();
+  if (std::find(opts.outputs.begin(), opts.outputs.end(), MeshFormat::k3mf) != opts.outputs.end())
+    detail::threemf_api();
   PipelineResult result;
   RunStats& stats = result.stats;
   StageTimer timer(stats, opts.progress, opts.cancel);
