@@ -12,9 +12,11 @@ install(DIRECTORY ${PROJECT_SOURCE_DIR}/lib/include/qjulia
         DESTINATION ${CMAKE_INSTALL_INCLUDEDIR})
 install(TARGETS qjulia_cli EXPORT qjuliaTargets RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 # The modules, loaded on first use from <libdir>/qjulia: OpenVDB's (lib/src/base/vdb_module.h),
-# lib3mf's (lib/src/io/threemf_module.h) and the web server's.
+# lib3mf's (lib/src/io/threemf_module.h), OpenMesh's (lib/src/mesh/openmesh_module.h) and the
+# web server's.
 install(TARGETS qjulia_vdb LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}/qjulia)
 install(TARGETS qjulia_3mf LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}/qjulia)
+install(TARGETS qjulia_openmesh LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}/qjulia)
 install(TARGETS qjulia_http LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR}/qjulia)
 if(TARGET qjulia_mpi)
   install(TARGETS qjulia_mpi RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})

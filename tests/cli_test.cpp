@@ -790,6 +790,21 @@ TEST_F(Cli, Lib3mfIsLoadedOnlyByTheRunsThatNeedIt) {
   EXPECT_NE(compare.err.find("QJULIA_3MF_MODULE"), std::string::npos) << compare.err;
 }
 
+// OpenMesh is loaded only by decimate()'s quality method (the library's DecimateMethod::kQuality,
+// tests/decimate_test.cpp), from its module: never by the command, decimating or not.
+TEST_F(Cli, OpenMeshIsNotLoadedByTheCommand) {
+  for (const std::string& args :
+       {std::string("mesh --resolution 24 -o a.ply --quiet"),
+        std::string("mesh --resolution 48 --faces 2000 -o b.ply --quiet")}) {
+    SCOPED_TRACE(args);
+    const CliRun r = run(args, "export LD_DEBUG=files");
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.err.find("libtbb"), std::string::npos);  // the log is there
+    for (const char* library : {"libOpenMesh", "libqjulia_openmesh"})
+      EXPECT_EQ(r.err.find(library), std::string::npos) << library;
+  }
+}
+
 // The HTTP library (and OpenSSL, brotli with it) is loaded only by `explore`, from its module;
 // without the module the explorer stops with one line that says where it looked.
 TEST_F(Cli, TheWebServerIsLoadedOnlyByExplore) {
