@@ -111,55 +111,39 @@ bool progress(int, ProgressIdentifier, void* user) {
 /// A model with one mesh object, the build item, and the metadata. "" or what failed.
 std::string build_model(const ThreeMfWrite& in, Handle& model) {
   Handle object, item;
-  auto failed = [](LIB3MFRESULT r, PLib3MFBase* obj, const char* what) {
-    return r == LIB3MF_OK ? std::string() : std::string(what) + ": " + last_error(obj);
+  std::string why;  // the first failure; the steps after it are not taken
+  auto ok = [&](LIB3MFRESULT r, PLib3MFBase* obj, const char* what) {
+    if (r != LIB3MF_OK) why = std::string(what) + ": " + last_error(obj);
+    return r == LIB3MF_OK;
   };
-  std::string why;
-  if (!(why = failed(lib3mf_createmodel(model.out()), nullptr, "creating the model")).empty() ||
-      !(why = failed(lib3mf_model_setunit(model.get(), unit_code(in.unit)), model.get(),
-                     "setting the unit"))
-           .empty() ||
-      !(why = failed(lib3mf_model_addmeshobject(model.get(), object.out()), model.get(),
-                     "adding the mesh"))
-           .empty() ||
-      !(why = failed(lib3mf_object_setnameutf8(object.get(), "qjulia"), object.get(),
-                     "naming the mesh"))
-           .empty() ||
-      !(why = failed(lib3mf_object_settype(object.get(), MODELOBJECTTYPE_MODEL), object.get(),
-                     "setting the type"))
-           .empty())
-    return why;
   // TriMesh's arrays have lib3mf's layout; setgeometry copies them.
-  why = failed(
-      lib3mf_meshobject_setgeometry(
-          object.get(),
-          reinterpret_cast<MODELMESHVERTEX*>(const_cast<std::array<float, 3>*>(in.positions)),
-          DWORD(in.vertices),
-          reinterpret_cast<MODELMESHTRIANGLE*>(
-              const_cast<std::array<std::uint32_t, 3>*>(in.triangles)),
-          DWORD(in.faces)),
-      object.get(), "setting the geometry");
-  if (!why.empty()) return why;
-  if (!(why = failed(lib3mf_model_addbuilditem(model.get(), object.get(), nullptr, item.out()),
-                     model.get(), "adding the build item"))
-           .empty() ||
-      !(why = failed(lib3mf_object_setuuidutf8(object.get(), in.uuid[0].c_str()), object.get(),
-                     "naming the mesh by its UUID"))
-           .empty() ||
-      !(why = failed(lib3mf_model_setbuilduuidutf8(model.get(), in.uuid[1].c_str()), model.get(),
-                     "naming the build by its UUID"))
-           .empty() ||
-      !(why = failed(lib3mf_builditem_setuuidutf8(item.get(), in.uuid[2].c_str()), item.get(),
-                     "naming the build item by its UUID"))
-           .empty() ||
-      !(why = failed(lib3mf_model_addmetadatautf8(model.get(), "Application", in.generator.c_str()),
-                     model.get(), "adding metadata"))
-           .empty())
-    return why;
-  if (!in.params.empty())
-    return failed(lib3mf_model_addmetadatautf8(model.get(), kParamsKey, in.params.c_str()),
-                  model.get(), "adding the parameters as metadata");
-  return "";
+  auto* vertices =
+      reinterpret_cast<MODELMESHVERTEX*>(const_cast<std::array<float, 3>*>(in.positions));
+  auto* triangles =
+      reinterpret_cast<MODELMESHTRIANGLE*>(const_cast<std::array<std::uint32_t, 3>*>(in.triangles));
+  ok(lib3mf_createmodel(model.out()), nullptr, "creating the model") &&
+      ok(lib3mf_model_setunit(model.get(), unit_code(in.unit)), model.get(), "setting the unit") &&
+      ok(lib3mf_model_addmeshobject(model.get(), object.out()), model.get(), "adding the mesh") &&
+      ok(lib3mf_object_setnameutf8(object.get(), "qjulia"), object.get(), "naming the mesh") &&
+      ok(lib3mf_object_settype(object.get(), MODELOBJECTTYPE_MODEL), object.get(),
+         "setting the type") &&
+      ok(lib3mf_meshobject_setgeometry(object.get(), vertices, DWORD(in.vertices), triangles,
+                                       DWORD(in.faces)),
+         object.get(), "setting the geometry") &&
+      ok(lib3mf_model_addbuilditem(model.get(), object.get(), nullptr, item.out()), model.get(),
+         "adding the build item") &&
+      ok(lib3mf_object_setuuidutf8(object.get(), in.uuid[0].c_str()), object.get(),
+         "naming the mesh by its UUID") &&
+      ok(lib3mf_model_setbuilduuidutf8(model.get(), in.uuid[1].c_str()), model.get(),
+         "naming the build by its UUID") &&
+      ok(lib3mf_builditem_setuuidutf8(item.get(), in.uuid[2].c_str()), item.get(),
+         "naming the build item by its UUID") &&
+      ok(lib3mf_model_addmetadatautf8(model.get(), "Application", in.generator.c_str()),
+         model.get(), "adding metadata") &&
+      (in.params.empty() ||
+       ok(lib3mf_model_addmetadatautf8(model.get(), kParamsKey, in.params.c_str()), model.get(),
+          "adding the parameters as metadata"));
+  return why;
 }
 
 /// lib3mf writes its zip stream here, in memory: lib3mf 1.8 terminates the process when a

@@ -83,8 +83,8 @@ FormatLimit format_limit(const Params& params, const RunPlan& plan, const RunEst
     return {"32-bit vertex numbers",
             "the mesh would have about " + rounded(vertices) +
                 " vertices, more than 32-bit indices can number; lower the resolution"};
+  const double final_vertices = 0.5 * static_cast<double>(e.final_faces);
   for (MeshFormat f : plan.outputs) {
-    const double final_vertices = 0.5 * static_cast<double>(e.final_faces);
     if (f == MeshFormat::kPly && final_vertices > 2147483647.0)
       return {"PLY's indices", "the mesh would have about " + rounded(final_vertices) +
                                    " vertices, more than PLY's signed 32-bit indices hold; write "
