@@ -84,13 +84,32 @@ TEST(Estimate, PeakMemoryWithinOneAndAHalfTimesAt1024) {
   expect_estimate_within_1_5x("newton-cubic", 1024);
 }
 
+// check_run's refusal of a run: its TooLarge message, or "" (a failure) when it accepts it.
+std::string refusal(const Params& p, const RunPlan& plan, const RunEstimate& e,
+                    const MemoryLimits& limits) {
+  try {
+    check_run(p, plan, e, limits);
+  } catch (const TooLarge& error) {
+    return error.what();
+  }
+  ADD_FAILURE() << "resolution " << p.resolution << " (" << e.faces << " faces, "
+                << e.largest_output << " bytes written) was accepted";
+  return "";
+}
+
+// The resolution a refusal names as the largest that fits; 0 when it names none.
+int offered_resolution(const std::string& what) {
+  const std::string lead = "the largest resolution that fits is ";
+  const auto at = what.find(lead);
+  return at == std::string::npos ? 0 : std::stoi(what.substr(at + lead.size()));
+}
+
 TEST(Estimate, RefusesWhatDoesNotFitWithTheLargestResolutionThatDoes) {
   const MeshRun r = mesh("--resolution 2048 --max-memory 1G");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("1.00 GiB (--max-memory)"), std::string::npos) << r.err;
-  const auto at = r.err.find("the largest resolution that fits is ");
-  ASSERT_NE(at, std::string::npos) << r.err;
-  const int fits = std::stoi(r.err.substr(at + 36));
+  const int fits = offered_resolution(r.err);
+  ASSERT_GT(fits, 0) << r.err;
   EXPECT_GT(fits, 256);
   EXPECT_LT(fits, 2048);
   // That resolution is accepted under the same limit, and one well above it is not.
@@ -109,14 +128,9 @@ TEST(Estimate, RefusesAGlbBeyondFourGibibytesBeforeTheWork) {
   const RunEstimate e = estimate_run(p, plan);
   EXPECT_GT(e.faces, 200000000u);
   MemoryLimits unlimited;
-  try {
-    check_run(p, plan, e, unlimited);
-    ADD_FAILURE() << "a GLB of " << e.largest_output << " bytes was accepted";
-  } catch (const TooLarge& error) {
-    const std::string what = error.what();
-    EXPECT_NE(what.find("GLB holds at most 4 GiB"), std::string::npos) << what;
-    EXPECT_NE(what.find(".ply"), std::string::npos) << what;
-  }
+  const std::string what = refusal(p, plan, e, unlimited);
+  EXPECT_NE(what.find("GLB holds at most 4 GiB"), std::string::npos) << what;
+  EXPECT_NE(what.find(".ply"), std::string::npos) << what;
   // The same mesh as PLY, or decimated to a million faces as GLB, is accepted.
   plan.outputs = {MeshFormat::kPly};
   EXPECT_NO_THROW(check_run(p, plan, e, unlimited));
@@ -140,13 +154,8 @@ TEST(Estimate, RefusesAnStlOfMoreThanFourBillionFaces) {
   ASSERT_GT(double(e.faces), 4294967295.0);
   ASSERT_LT(double(e.vertices), 4294967295.0);
   MemoryLimits unlimited;
-  try {
-    check_run(p, plan, e, unlimited);
-    ADD_FAILURE() << "an STL of " << e.faces << " faces was accepted";
-  } catch (const TooLarge& error) {
-    EXPECT_NE(std::string(error.what()).find("STL's 32-bit count"), std::string::npos)
-        << error.what();
-  }
+  const std::string what = refusal(p, plan, e, unlimited);
+  EXPECT_NE(what.find("STL's 32-bit count"), std::string::npos) << what;
   plan.outputs = {MeshFormat::kObj};
   EXPECT_NO_THROW(check_run(p, plan, estimate_at(p, plan, base, p.resolution), unlimited));
 }
@@ -161,16 +170,8 @@ TEST(Estimate, TheLargestResolutionOfferedFitsTheOutputFormatsToo) {
   for (MeshFormat format : {MeshFormat::kGlb, MeshFormat::kPly}) {
     RunPlan plan;
     plan.outputs = {format};
-    std::string what;
-    try {
-      check_run(p, plan, estimate_run(p, plan), limits);
-      ADD_FAILURE() << "resolution 100000 was accepted";
-    } catch (const TooLarge& error) {
-      what = error.what();
-    }
-    const auto at = what.find("the largest resolution that fits is ");
-    ASSERT_NE(at, std::string::npos) << what;
-    const int fits = std::stoi(what.substr(at + 36));
+    const std::string what = refusal(p, plan, estimate_run(p, plan), limits);
+    const int fits = offered_resolution(what);
     ASSERT_GT(fits, 256) << what;
     Params q = p;
     q.resolution = fits;
