@@ -202,37 +202,50 @@ std::vector<std::uint32_t> face_components(const TriMesh& mesh) {
 std::vector<std::array<float, 3>> area_weighted_normals(const TriMesh& mesh) {
   validate_mesh(mesh, "normals");
   // Summed in the output itself (float: a vertex has a few faces, and a unit normal needs no
-  // more), each vertex's faces in face order, so the result does not depend on threads: the face
-  // normals of a block are made in parallel, then each thread adds them to its own vertices (64
-  // consecutive ones in every `lanes`), scanning the block in order.
+  // more), each vertex's faces in face order, so the result does not depend on threads: each
+  // thread scans the faces in order and adds their normals to its own vertices (runs of 4096
+  // consecutive ones in every `lanes`). A face whose corners are all in one lane is marked with
+  // it beforehand, so the other lanes skip it without reading it; a face with corners in several
+  // lanes has its normal made by each of them.
   std::vector<std::array<float, 3>> normals;
   detail::resize_first_touched(normals, mesh.positions.size());
   const std::size_t nf = mesh.triangles.size();
   auto position = [&](std::uint32_t v) -> const auto& { return mesh.positions[v]; };
-  constexpr std::size_t kBlock = std::size_t{1} << 18;
-  std::vector<std::array<float, 3>> face(std::min(kBlock, nf));
+  constexpr int kRunShift = 12;          // a lane's runs: 4096 vertices, a brick's vertices or more
+  constexpr std::uint8_t kMixed = 0xff;  // a face with corners in more than one lane
   // One lane per thread that may run (the arena's size ignores a global_control limit such as
-  // --threads 1, and each lane scans every face); a power of two, so a vertex's lane is a mask.
+  // --threads 1); a power of two, so a vertex's lane is a mask, and below kMixed.
   const std::size_t threads = std::min<std::size_t>(
       static_cast<std::size_t>(std::max(1, tbb::this_task_arena::max_concurrency())),
       tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
   std::size_t lanes = 1;
-  while (lanes * 2 <= threads) lanes *= 2;
+  while (lanes * 2 <= std::min<std::size_t>(threads, 128)) lanes *= 2;
   const std::uint32_t lane_mask = static_cast<std::uint32_t>(lanes - 1);
-  for (std::size_t first = 0; first < nf; first += kBlock) {
-    const std::size_t n = std::min(kBlock, nf - first);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096),
+  auto lane_of = [&](std::uint32_t v) { return (v >> kRunShift) & lane_mask; };
+  std::vector<std::uint8_t> face_lane;
+  if (lanes > 1) {
+    detail::resize_first_touched(face_lane, nf);
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, 1 << 14),
                       [&](const tbb::blocked_range<std::size_t>& r) {
-                        for (std::size_t f = r.begin(); f != r.end(); ++f)
-                          face[f] = detail::area_normal(mesh.triangles[first + f], position);
+                        for (std::size_t f = r.begin(); f != r.end(); ++f) {
+                          const auto& t = mesh.triangles[f];
+                          const std::uint32_t l = lane_of(t[0]);
+                          face_lane[f] = l == lane_of(t[1]) && l == lane_of(t[2])
+                                             ? static_cast<std::uint8_t>(l)
+                                             : kMixed;
+                        }
                       });
-    tbb::parallel_for(std::size_t{0}, lanes, [&](std::size_t lane) {
-      for (std::size_t f = 0; f < n; ++f)
-        for (std::uint32_t v : mesh.triangles[first + f])
-          if (((v >> 6) & lane_mask) == lane)
-            for (int k = 0; k < 3; ++k) normals[v][k] += face[f][k];
-    });
   }
+  tbb::parallel_for(std::size_t{0}, lanes, [&](std::size_t lane) {
+    for (std::size_t f = 0; f < nf; ++f) {
+      if (lanes > 1 && face_lane[f] != lane && face_lane[f] != kMixed) continue;
+      const auto& t = mesh.triangles[f];
+      const std::array<float, 3> n = detail::area_normal(t, position);
+      for (std::uint32_t v : t)
+        if (lane_of(v) == lane)
+          for (int k = 0; k < 3; ++k) normals[v][k] += n[k];
+    }
+  });
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, normals.size(), 1 << 14),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t v = r.begin(); v != r.end(); ++v)
