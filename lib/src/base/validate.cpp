@@ -1,5 +1,8 @@
 #include "qjulia/base/validate.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
+
 #include <cmath>
 #include <cstdint>
 
@@ -7,6 +10,8 @@
 
 namespace qjulia {
 namespace {
+
+constexpr std::size_t kGrain = std::size_t{1} << 16;  // faces or vertices a task checks
 
 [[noreturn]] void reject(const std::string& source, const std::string& what) {
   throw InvalidInput(source + ": " + what);
@@ -32,14 +37,20 @@ void validate_mesh(const TriMesh& mesh, const std::string& source, const MeshReq
   check_count(source, mesh.normals.size(), nv, "normals");
   check_count(source, mesh.colors.size(), nv, "colours");
 
-  // The passes look for any failure first (branch-free, fast on big meshes); the messages are
-  // built only when one is found.
-  uint32_t largest = 0;
-  for (const auto& t : mesh.triangles) {
-    const uint32_t m = t[0] > t[1] ? t[0] : t[1];
-    largest = m > largest ? m : largest;
-    largest = t[2] > largest ? t[2] : largest;
-  }
+  // The passes look for any failure first (branch-free, in parallel: they run on every mesh
+  // written), and the messages are built only when one is found.
+  const uint32_t largest = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, nf, kGrain), uint32_t{0},
+      [&](const tbb::blocked_range<std::size_t>& r, uint32_t m) {
+        for (std::size_t f = r.begin(); f != r.end(); ++f) {
+          const auto& t = mesh.triangles[f];
+          const uint32_t a = t[0] > t[1] ? t[0] : t[1];
+          m = a > m ? a : m;
+          m = t[2] > m ? t[2] : m;
+        }
+        return m;
+      },
+      [](uint32_t a, uint32_t b) { return a > b ? a : b; });
   if (nf > 0 && largest >= nv) {
     for (std::size_t f = 0; f < nf; ++f)
       for (const uint32_t v : mesh.triangles[f])
@@ -49,9 +60,16 @@ void validate_mesh(const TriMesh& mesh, const std::string& source, const MeshReq
                              " vertices");
         }
   }
-  bool finite = true;
-  for (const auto& p : mesh.positions)
-    finite &= std::isfinite(p[0]) & std::isfinite(p[1]) & std::isfinite(p[2]);
+  const bool finite = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, nv, kGrain), true,
+      [&](const tbb::blocked_range<std::size_t>& r, bool ok) {
+        for (std::size_t v = r.begin(); v != r.end(); ++v) {
+          const auto& p = mesh.positions[v];
+          ok &= std::isfinite(p[0]) & std::isfinite(p[1]) & std::isfinite(p[2]);
+        }
+        return ok;
+      },
+      [](bool a, bool b) { return a && b; });
   if (!finite) {
     for (std::size_t v = 0; v < nv; ++v) {
       const auto& p = mesh.positions[v];

@@ -4,6 +4,8 @@
 
 #include <fcntl.h>
 #include <sys/stat.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -47,8 +49,23 @@ void ReadContext::charge(std::size_t count, std::size_t size, const std::string&
 
 namespace {
 
-/// Unit normals for every vertex: the given ones, normalized, where they are finite and non-zero, otherwise
-/// area-weighted face normals; (0, 0, 1) where nothing defines a direction.
+/// Whether every normal has unit length (in parallel: every mesh written is checked).
+bool all_unit(const std::vector<std::array<float, 3>>& normals) {
+  return tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, normals.size(), std::size_t{1} << 16), true,
+      [&](const tbb::blocked_range<std::size_t>& r, bool ok) {
+        for (std::size_t v = r.begin(); v != r.end(); ++v) {
+          const auto& g = normals[v];
+          const double len2 = double(g[0]) * g[0] + double(g[1]) * g[1] + double(g[2]) * g[2];
+          ok &= std::abs(len2 - 1.0) < 1e-6;  // false for NaN too
+        }
+        return ok;
+      },
+      [](bool a, bool b) { return a && b; });
+}
+
+/// Unit normals for every vertex: the given ones, normalized, where they are finite and non-zero,
+/// otherwise area-weighted face normals; (0, 0, 1) where nothing defines a direction.
 std::vector<std::array<float, 3>> unit_normals(const TriMesh& mesh) {
   const std::size_t nv = mesh.positions.size();
   std::vector<std::array<float, 3>> computed;  // made only when a given normal is unusable
@@ -236,16 +253,11 @@ const char* extension_of(MeshFormat format) {
 namespace detail {
 
 ExportData export_data(const std::string& path, const TriMesh& mesh, const ExportOptions& opts) {
-  ExportData data{mesh, {}, {}, {}, {}, {}, opts.unit, std::string("qjulia ") + QJULIA_VERSION,
-                  opts.cancel};
+  ExportData data{
+      mesh, {}, {}, {}, {}, {}, opts.unit, std::string("qjulia ") + QJULIA_VERSION, opts.cancel};
   set_params(path, opts.params_json, data);
   const std::size_t nv = mesh.positions.size();
-  bool unit = mesh.normals.size() == nv;
-  for (std::size_t v = 0; unit && v < nv; ++v) {
-    const auto& g = mesh.normals[v];
-    const double len2 = double(g[0]) * g[0] + double(g[1]) * g[1] + double(g[2]) * g[2];
-    unit = std::abs(len2 - 1.0) < 1e-6;  // false for NaN too
-  }
+  const bool unit = mesh.normals.size() == nv && all_unit(mesh.normals);
   if (!unit) data.made_normals = unit_normals(mesh);
   data.normals = {unit ? mesh.normals.data() : data.made_normals.data(), nv};
   if (!mesh.colors.empty()) {
