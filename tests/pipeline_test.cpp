@@ -7,6 +7,8 @@
 #include <complex>
 #include <set>
 
+#include "qjulia/mesh/clean.h"
+
 namespace qjulia {
 namespace {
 
@@ -114,6 +116,67 @@ TEST(Pipeline, DustRemovalRemovesOnlyComponentsBelowTheThreshold) {
   p.mesh.min_component = 0.0;
   const PipelineResult all = run_pipeline(p);
   EXPECT_EQ(all.stats.measure.components.size(), c.components_before);
+}
+
+// A mesh's faces by their corners' positions, each starting at its least corner (the
+// orientation kept).
+std::vector<std::array<std::array<float, 3>, 3>> faces_by_position(const TriMesh& m) {
+  std::vector<std::array<std::array<float, 3>, 3>> out;
+  for (const auto& t : m.triangles) {
+    std::array<std::array<float, 3>, 3> f = {m.positions[t[0]], m.positions[t[1]],
+                                             m.positions[t[2]]};
+    std::rotate(f.begin(), std::min_element(f.begin(), f.end()), f.end());
+    out.push_back(f);
+  }
+  return out;
+}
+
+// Whether `part` is `whole` with some items left out, in order.
+template <class T>
+bool is_subsequence(const std::vector<T>& part, const std::vector<T>& whole) {
+  std::size_t i = 0;
+  for (const T& x : whole)
+    if (i < part.size() && part[i] == x) ++i;
+  return i == part.size();
+}
+
+TEST(Pipeline, DustRemovalKeepsTheOrderAndLeavesTheFacesTheGeneralCleanLeaves) {
+  // The pipeline removes the dust in parallel, block by block of faces and vertices; the
+  // general clean() removes the same components in one pass. At 160 the mesh has some ten
+  // blocks of faces and the dust is spread over all of them.
+  Params p = preset("newton-cubic");
+  p.resolution = 160;
+  const PipelineResult r = run_pipeline(p);
+  ASSERT_TRUE(r.stats.clean.has_value());
+  ASSERT_GT(r.stats.clean->removed_components, 100u);
+  ASSERT_GT(r.mesh.triangles.size(), std::size_t{8} << 16);
+  p.mesh.min_component = 0.0;
+  const PipelineResult all = run_pipeline(p);
+  ASSERT_EQ(all.stats.clean->removed_components, 0u);
+  // What is kept is in the order it had, with the normals it had, and every vertex is used.
+  const auto kept = faces_by_position(r.mesh), every = faces_by_position(all.mesh);
+  EXPECT_EQ(kept.size() + r.stats.clean->removed_faces, every.size());
+  EXPECT_TRUE(is_subsequence(kept, every));
+  std::vector<std::pair<std::array<float, 3>, std::array<float, 3>>> kept_v, every_v;
+  for (std::size_t v = 0; v < r.mesh.positions.size(); ++v)
+    kept_v.emplace_back(r.mesh.positions[v], r.mesh.normals[v]);
+  for (std::size_t v = 0; v < all.mesh.positions.size(); ++v)
+    every_v.emplace_back(all.mesh.positions[v], all.mesh.normals[v]);
+  EXPECT_TRUE(is_subsequence(kept_v, every_v));
+  std::vector<char> used(r.mesh.positions.size(), 0);
+  for (const auto& t : r.mesh.triangles)
+    for (std::uint32_t v : t) used[v] = 1;
+  EXPECT_EQ(std::count(used.begin(), used.end(), 0), 0);
+  // The same faces as the general clean() with the same threshold.
+  CleanOptions copts;
+  copts.min_component_volume = r.stats.clean->min_component_volume;
+  CleanReport creport;
+  auto cleaned = faces_by_position(clean(all.mesh, copts, &creport));
+  EXPECT_EQ(creport.removed_components, r.stats.clean->removed_components);
+  auto sorted_kept = kept;
+  std::sort(sorted_kept.begin(), sorted_kept.end());
+  std::sort(cleaned.begin(), cleaned.end());
+  EXPECT_TRUE(sorted_kept == cleaned);
 }
 
 TEST(Pipeline, UnitBallAt256DecimatedTo2000FacesStaysClosedAndOnTheSphere) {

@@ -1,14 +1,45 @@
 #include "pipeline/dust.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 namespace qjulia::detail {
 
 namespace {
+
+constexpr std::size_t kBlock = std::size_t{1} << 16;  // items a task compacts
+
+// Keeps the items i of [0, n) that keep(i) keeps, in order, at the front: move(from, to) moves
+// item `from` to `to` (never behind it). Each block of kBlock items is compacted within itself in
+// parallel, then the blocks' runs move to their places in order (serial: they may overlap).
+// Returns where each block's kept items start in the result, and the kept count last.
+template <class Keep, class Move>
+std::vector<std::size_t> compact(std::size_t n, const Keep& keep, const Move& move) {
+  const std::size_t blocks = (n + kBlock - 1) / kBlock;
+  std::vector<std::size_t> start(blocks + 1, 0);
+  tbb::parallel_for(std::size_t{0}, blocks, [&](std::size_t b) {
+    const std::size_t first = b * kBlock, last = std::min(n, first + kBlock);
+    std::size_t to = first;
+    for (std::size_t i = first; i < last; ++i)
+      if (keep(i)) move(i, to++);
+    start[b + 1] = to - first;
+  });
+  for (std::size_t b = 0; b < blocks; ++b) {
+    const std::size_t count = start[b + 1];
+    start[b + 1] = start[b] + count;
+    if (start[b] != b * kBlock)
+      for (std::size_t i = 0; i < count; ++i) move(b * kBlock + i, start[b] + i);
+  }
+  return start;
+}
 
 // Which components are dust.
 std::vector<char> dust_of(const MeshMeasure& m, double min_volume) {
@@ -44,7 +75,11 @@ void update_measures(ExtractStats& stats, const std::vector<char>& drop, std::si
     euler += cm.euler;
     edges += 3 * cm.faces / 2;
   }
-  for (auto& c : stats.face_component) c = new_index[c];
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, stats.face_component.size(), kBlock),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t f = r.begin(); f != r.end(); ++f)
+                        stats.face_component[f] = new_index[stats.face_component[f]];
+                    });
   m.components = std::move(kept);
   stats.component_bbox = std::move(kept_box);
   m.vertices = vertices;
@@ -62,22 +97,20 @@ void update_measures(ExtractStats& stats, const std::vector<char>& drop, std::si
   rep.components_after = m.components.size();
 }
 
-// Moves the vertices `keep(v, new index)` keeps (with their normals and colours) to the front,
-// in order, and drops the rest; returns how many are kept.
+// Moves the vertices `keep(v)` keeps (with their normals and colours) to the front, in order,
+// and drops the rest; returns where each block of kBlock vertices' kept ones start (compact()).
 template <class Keep>
-std::size_t compact_vertices(TriMesh& mesh, Keep&& keep) {
-  std::size_t next = 0;
-  for (std::size_t v = 0; v < mesh.positions.size(); ++v) {
-    if (!keep(v, static_cast<std::uint32_t>(next))) continue;
-    mesh.positions[next] = mesh.positions[v];
-    if (!mesh.normals.empty()) mesh.normals[next] = mesh.normals[v];
-    if (!mesh.colors.empty()) mesh.colors[next] = mesh.colors[v];
-    ++next;
-  }
-  mesh.positions.resize(next);
-  if (!mesh.normals.empty()) mesh.normals.resize(next);
-  if (!mesh.colors.empty()) mesh.colors.resize(next);
-  return next;
+std::vector<std::size_t> compact_vertices(TriMesh& mesh, const Keep& keep) {
+  const std::vector<std::size_t> start =
+      compact(mesh.positions.size(), keep, [&](std::size_t from, std::size_t to) {
+        mesh.positions[to] = mesh.positions[from];
+        if (!mesh.normals.empty()) mesh.normals[to] = mesh.normals[from];
+        if (!mesh.colors.empty()) mesh.colors[to] = mesh.colors[from];
+      });
+  mesh.positions.resize(start.back());
+  if (!mesh.normals.empty()) mesh.normals.resize(start.back());
+  if (!mesh.colors.empty()) mesh.colors.resize(start.back());
+  return start;
 }
 
 }  // namespace
@@ -92,26 +125,43 @@ CleanReport remove_dust(TriMesh& mesh, ExtractStats& stats, double min_volume) {
     rep.components_after = rep.components_before;
     return rep;
   }
-  // Faces of kept components; vertices renumbered in order.
-  std::vector<std::uint32_t> renumber(mesh.positions.size(), UINT32_MAX);
-  std::size_t kept_faces = 0;
-  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
-    if (drop[stats.face_component[f]]) continue;
-    for (std::uint32_t v : mesh.triangles[f]) renumber[v] = 0;
-    mesh.triangles[kept_faces] = mesh.triangles[f];
-    stats.face_component[kept_faces] = stats.face_component[f];
-    ++kept_faces;
-  }
+  // Faces of kept components, in order, and the vertices they use (a flag many faces may set
+  // at once).
+  const std::size_t nv = mesh.positions.size();
+  const std::unique_ptr<std::atomic<std::uint8_t>[]> used(new std::atomic<std::uint8_t>[nv]);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, kBlock),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t v = r.begin(); v != r.end(); ++v)
+                        used[v].store(0, std::memory_order_relaxed);
+                    });
+  auto& comp = stats.face_component;
+  auto kept = [&](std::size_t f) {
+    if (drop[comp[f]]) return false;
+    for (std::uint32_t v : mesh.triangles[f]) used[v].store(1, std::memory_order_relaxed);
+    return true;
+  };
+  auto move_face = [&](std::size_t from, std::size_t to) {
+    mesh.triangles[to] = mesh.triangles[from];
+    comp[to] = comp[from];
+  };
+  const std::size_t kept_faces = compact(mesh.triangles.size(), kept, move_face).back();
   rep.removed_faces = mesh.triangles.size() - kept_faces;
   mesh.triangles.resize(kept_faces);
-  stats.face_component.resize(kept_faces);
-  compact_vertices(mesh, [&](std::size_t v, std::uint32_t next) {
-    if (renumber[v] == UINT32_MAX) return false;
-    renumber[v] = next;
-    return true;
+  comp.resize(kept_faces);
+  // The used vertices (with their normals and colours), in order; then their new numbers.
+  auto is_used = [&](std::size_t v) { return used[v].load(std::memory_order_relaxed) != 0; };
+  const std::vector<std::size_t> start = compact_vertices(mesh, is_used);
+  std::vector<std::uint32_t> renumber(nv);
+  tbb::parallel_for(std::size_t{0}, start.size() - 1, [&](std::size_t b) {
+    auto next = static_cast<std::uint32_t>(start[b]);
+    for (std::size_t v = b * kBlock; v < std::min(nv, (b + 1) * kBlock); ++v)
+      if (is_used(v)) renumber[v] = next++;
   });
-  for (auto& t : mesh.triangles)
-    for (auto& v : t) v = renumber[v];
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, kept_faces, kBlock),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t f = r.begin(); f != r.end(); ++f)
+                        for (auto& v : mesh.triangles[f]) v = renumber[v];
+                    });
   update_measures(stats, drop, mesh.positions.size(), mesh.triangles.size(), rep);
   return rep;
 }
@@ -185,7 +235,7 @@ CleanReport remove_dust_part(TriMesh& mesh, ExtractStats& stats, double min_volu
       v = l != UINT64_MAX ? renumber[l] : ghost_renumber[part.ghost(v)];
     }
   // The vertices, compacted; the runs follow (what is kept of a run stays contiguous).
-  compact_vertices(mesh, [&](std::size_t l, std::uint32_t) { return used[l] != 0; });
+  compact_vertices(mesh, [&](std::size_t l) { return used[l] != 0; });
   for (VertexRun& run : part.shared) {
     std::uint64_t first = UINT64_MAX, count = 0;
     for (std::uint64_t k = 0; k < run.count; ++k)
