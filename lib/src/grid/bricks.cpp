@@ -164,6 +164,12 @@ class BrickMap {
     }
   }
   std::size_t size() const { return count_; }
+  // Room for `n` bricks in all, made at once (operator[] grows the map by doubling).
+  void reserve(std::size_t n) {
+    std::size_t slots = slots_.size();
+    while (2 * n > slots) slots *= 2;
+    if (slots != slots_.size()) rehash(slots);
+  }
   // Calls f(brick) for every brick, taking it out of the map; the map is empty after.
   template <class F>
   void drain(F&& f) {
@@ -182,8 +188,9 @@ class BrickMap {
   static std::size_t hash(std::uint64_t key) {
     return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> 17);
   }
-  void grow() {
-    std::vector<Slot> old(slots_.size() * 2);
+  void grow() { rehash(slots_.size() * 2); }
+  void rehash(std::size_t slots) {
+    std::vector<Slot> old(slots);
     old.swap(slots_);
     count_ = 0;
     for (Slot& s : old)
@@ -1013,6 +1020,7 @@ struct BrickSampler::Sampling {
     });
     std::vector<Brick*> made;
     made.reserve(keys.size());
+    bricks.reserve(before + keys.size());
     for (auto& b : fresh)
       if (b) {
         made.push_back(b.get());

@@ -482,15 +482,17 @@ struct BrickMesher {
                       });
   }
 
-  // Bricks without surface cells are not needed any more (with `release`). Their memory is not
+  // Bricks without surface cells are not needed any more (with `release`): they go in parallel
+  // (a serial free of each took 0.02 s at 512^3 on two threads). Their memory is not
   // trimmed here: the next passes reuse it, and a malloc_trim() (one madvise per free run of
   // pages, serial) took 0.035 s at 512^3 on an idle machine and up to 2 s at 1024^3 on a busy
   // one, without lowering the peak at either (the trims after the next passes do).
   void drop_empty_bricks() {
-    impl.bricks.erase(
-        std::remove_if(impl.bricks.begin(), impl.bricks.end(),
-                       [](const std::unique_ptr<detail::Brick>& b) { return !b->surface.any(); }),
-        impl.bricks.end());
+    tbb::parallel_for(std::size_t{0}, impl.bricks.size(), [&](std::size_t i) {
+      if (!impl.bricks[i]->surface.any()) impl.bricks[i].reset();
+    });
+    impl.bricks.erase(std::remove(impl.bricks.begin(), impl.bricks.end(), nullptr),
+                      impl.bricks.end());
   }
 
   // Pass one: the edge vertices, refined in groups of bricks that share their evaluations.
@@ -787,6 +789,7 @@ struct BrickMesher {
         border_problems[i] += faces[i].border[2 * axis].size();
       }
     });
+    tbb::parallel_for(std::size_t{0}, nv, [&](std::size_t i) { faces[i] = detail::BrickFaces(); });
     faces.clear();
     faces.shrink_to_fit();
     give_back(0);  // the many small border lists
