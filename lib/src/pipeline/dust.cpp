@@ -151,7 +151,8 @@ CleanReport remove_dust(TriMesh& mesh, ExtractStats& stats, double min_volume) {
   // The used vertices (with their normals and colours), in order; then their new numbers.
   auto is_used = [&](std::size_t v) { return used[v].load(std::memory_order_relaxed) != 0; };
   const std::vector<std::size_t> start = compact_vertices(mesh, is_used);
-  std::vector<std::uint32_t> renumber(nv);
+  // Written (and faulted in) in parallel: only the used vertices' numbers are read.
+  const std::unique_ptr<std::uint32_t[]> renumber(new std::uint32_t[nv]);
   tbb::parallel_for(std::size_t{0}, start.size() - 1, [&](std::size_t b) {
     auto next = static_cast<std::uint32_t>(start[b]);
     for (std::size_t v = b * kBlock; v < std::min(nv, (b + 1) * kBlock); ++v)
