@@ -384,23 +384,34 @@ TEST_F(Cli, WorkingCommandsRunWithMallocOnHugePagesUnlessTheUserDecides) {
 TEST_F(Cli, MallocTakesBlocksUpTo32MiBFromTheHeapUnlessTheUserSetsAThreshold) {
   // `bench --malloc` allocates a block of 16 MiB and says where malloc put it: glibc's default
   // maps it on its own (threshold 128 KiB); the command fixes the threshold at 32 MiB, unless the
-  // user set one (GLIBC_TUNABLES, or glibc's MALLOC_*_THRESHOLD_ variables). A sanitizer's
-  // malloc has no such thresholds, and the line says so.
+  // user set one (GLIBC_TUNABLES, or glibc's MALLOC_*_THRESHOLD_ variables). It also says how a
+  // new thread's heap is made: whole (64 MiB of address space) with the command's top pad, page
+  // by page with glibc's (128 KiB), each step an mprotect that stops the other threads' page
+  // faults. A sanitizer's malloc has no such settings, and the line says so.
   const auto state = [&](const std::string& env) {
     return bench_malloc_line("malloc thresholds: ", env);
   };
 #if defined(__SANITIZE_ADDRESS__)
   const std::string heap = "malloc is not glibc's (a sanitizer's?): its thresholds do not apply";
-  const std::string mapped = heap;
+  const std::string mapped = heap, whole = "", by_page = "", user = "";
 #else
   const std::string heap = "a 16 MiB block is on the heap";
   const std::string mapped = "a 16 MiB block is mapped on its own";
+  const std::string whole = ", a new thread's heap is whole at once";
+  const std::string by_page = ", a new thread's heap grows page by page";
+  const std::string user = " (the user sets the ";
 #endif
-  EXPECT_EQ(state(""), heap);
+  EXPECT_EQ(state(""), heap + whole);
   EXPECT_EQ(state("GLIBC_TUNABLES=glibc.malloc.mmap_threshold=131072"),
-            mapped + " (the user sets the mmap threshold)");
-  EXPECT_EQ(state("MALLOC_MMAP_THRESHOLD_=131072"), mapped + " (the user sets the mmap threshold)");
-  EXPECT_EQ(state("MALLOC_TRIM_THRESHOLD_=1048576"), heap + " (the user sets the trim threshold)");
+            mapped + whole + (user.empty() ? "" : user + "mmap threshold)"));
+  EXPECT_EQ(state("MALLOC_MMAP_THRESHOLD_=131072"),
+            mapped + whole + (user.empty() ? "" : user + "mmap threshold)"));
+  EXPECT_EQ(state("MALLOC_TRIM_THRESHOLD_=1048576"),
+            heap + whole + (user.empty() ? "" : user + "trim threshold)"));
+  EXPECT_EQ(state("MALLOC_TOP_PAD_=131072"),
+            heap + by_page + (user.empty() ? "" : user + "top pad)"));
+  EXPECT_EQ(state("GLIBC_TUNABLES=glibc.malloc.top_pad=131072:glibc.malloc.mmap_threshold=131072"),
+            mapped + by_page + (user.empty() ? "" : user + "mmap threshold, top pad)"));
   const CliRun only = run("bench --malloc");
   EXPECT_EQ(only.out.find("kernel"), std::string::npos) << "--malloc prints only its lines";
 }

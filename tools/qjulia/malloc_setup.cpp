@@ -7,6 +7,8 @@
 #include <cctype>
 #include <cstdlib>
 #include <cstring>
+#include <thread>
+#include <utility>
 
 namespace qjulia::cli {
 namespace {
@@ -39,24 +41,27 @@ bool tunable_set() {
   return t && std::strstr(t, kTunable);
 }
 
-/// Whether the user chose malloc's threshold `name` ("mmap" or "trim"): through GLIBC_TUNABLES
-/// or glibc's older MALLOC_MMAP_THRESHOLD_ / MALLOC_TRIM_THRESHOLD_.
-bool user_threshold(const std::string& name) {
+/// Whether the user chose malloc's setting `name` ("mmap_threshold", "trim_threshold",
+/// "top_pad"): through GLIBC_TUNABLES or glibc's older MALLOC_MMAP_THRESHOLD_,
+/// MALLOC_TRIM_THRESHOLD_ or MALLOC_TOP_PAD_.
+bool user_setting(const std::string& name) {
   const char* t = std::getenv("GLIBC_TUNABLES");
-  if (t && std::strstr(t, ("glibc.malloc." + name + "_threshold").c_str())) return true;
-  std::string old = "MALLOC_" + name + "_THRESHOLD_";
+  if (t && std::strstr(t, ("glibc.malloc." + name).c_str())) return true;
+  std::string old = "MALLOC_" + name + "_";
   for (char& c : old) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
   return std::getenv(old.c_str()) != nullptr;
 }
 
 constexpr int kMmapThreshold = 32 << 20;  // glibc's largest (HEAP_MAX_SIZE / 2 on 64 bits)
 constexpr int kTrimThreshold = 128 << 20;
+constexpr int kTopPad = 64 << 20;  // a whole heap of a thread's arena (HEAP_MAX_SIZE)
 
 }  // namespace
 
 void fix_malloc_thresholds() {
-  if (!user_threshold("mmap")) mallopt(M_MMAP_THRESHOLD, kMmapThreshold);
-  if (!user_threshold("trim")) mallopt(M_TRIM_THRESHOLD, kTrimThreshold);
+  if (!user_setting("mmap_threshold")) mallopt(M_MMAP_THRESHOLD, kMmapThreshold);
+  if (!user_setting("trim_threshold")) mallopt(M_TRIM_THRESHOLD, kTrimThreshold);
+  if (!user_setting("top_pad")) mallopt(M_TOP_PAD, kTopPad);
 }
 
 std::string malloc_thresholds_state() {
@@ -71,11 +76,23 @@ std::string malloc_thresholds_state() {
   else if (after.uordblks >= before.uordblks + kBlock)
     state = "a 16 MiB block is on the heap";
   else
-    state = "malloc is not glibc's (a sanitizer's?): its thresholds do not apply";
+    return "malloc is not glibc's (a sanitizer's?): its thresholds do not apply";
+  // A new thread's first small block makes its arena's heap: with the top pad, whole.
+  std::size_t heap = 0;
+  std::thread([&] {
+    const std::size_t old = mallinfo2().arena;
+    void* volatile small = std::malloc(64);
+    heap = mallinfo2().arena - old;
+    std::free(small);
+  }).join();
+  state += heap >= std::size_t(kTopPad / 2) ? ", a new thread's heap is whole at once"
+                                            : ", a new thread's heap grows page by page";
   std::string user;
-  for (const char* name : {"mmap", "trim"})
-    if (user_threshold(name)) user += std::string(user.empty() ? "" : ", ") + name;
-  if (!user.empty()) state += " (the user sets the " + user + " threshold)";
+  for (const auto& [name, label] :
+       {std::pair{"mmap_threshold", "mmap threshold"},
+        std::pair{"trim_threshold", "trim threshold"}, std::pair{"top_pad", "top pad"}})
+    if (user_setting(name)) user += std::string(user.empty() ? "" : ", ") + label;
+  if (!user.empty()) state += " (the user sets the " + user + ")";
   return state;
 }
 
