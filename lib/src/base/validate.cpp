@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "base/all_of.h"
 #include "qjulia/base/error.h"
 
 namespace qjulia {
@@ -60,16 +61,10 @@ void validate_mesh(const TriMesh& mesh, const std::string& source, const MeshReq
                              " vertices");
         }
   }
-  const bool finite = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, nv, kGrain), true,
-      [&](const tbb::blocked_range<std::size_t>& r, bool ok) {
-        for (std::size_t v = r.begin(); v != r.end(); ++v) {
-          const auto& p = mesh.positions[v];
-          ok &= std::isfinite(p[0]) & std::isfinite(p[1]) & std::isfinite(p[2]);
-        }
-        return ok;
-      },
-      [](bool a, bool b) { return a && b; });
+  const bool finite = detail::all_of_parallel(nv, [&](std::size_t v) -> bool {
+    const auto& p = mesh.positions[v];
+    return std::isfinite(p[0]) & std::isfinite(p[1]) & std::isfinite(p[2]);
+  });
   if (!finite) {
     for (std::size_t v = 0; v < nv; ++v) {
       const auto& p = mesh.positions[v];

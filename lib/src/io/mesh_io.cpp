@@ -4,8 +4,6 @@
 
 #include <fcntl.h>
 #include <sys/stat.h>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_reduce.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -14,6 +12,7 @@
 #include <cstring>
 #include <nlohmann/json.hpp>
 
+#include "base/all_of.h"
 #include "io/formats.h"
 #include "qjulia/base/error.h"
 #include "qjulia/base/memory.h"
@@ -51,17 +50,11 @@ namespace {
 
 /// Whether every normal has unit length (in parallel: every mesh written is checked).
 bool all_unit(const std::vector<std::array<float, 3>>& normals) {
-  return tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, normals.size(), std::size_t{1} << 16), true,
-      [&](const tbb::blocked_range<std::size_t>& r, bool ok) {
-        for (std::size_t v = r.begin(); v != r.end(); ++v) {
-          const auto& g = normals[v];
-          const double len2 = double(g[0]) * g[0] + double(g[1]) * g[1] + double(g[2]) * g[2];
-          ok &= std::abs(len2 - 1.0) < 1e-6;  // false for NaN too
-        }
-        return ok;
-      },
-      [](bool a, bool b) { return a && b; });
+  return detail::all_of_parallel(normals.size(), [&](std::size_t v) {
+    const auto& g = normals[v];
+    const double len2 = double(g[0]) * g[0] + double(g[1]) * g[1] + double(g[2]) * g[2];
+    return std::abs(len2 - 1.0) < 1e-6;  // false for NaN too
+  });
 }
 
 /// Unit normals for every vertex: the given ones, normalized, where they are finite and non-zero,
