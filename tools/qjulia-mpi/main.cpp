@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "malloc_setup.h"
 #include "mesh_command.h"
 #include "mpi_comm.h"
 #include "progress_bar.h"
@@ -88,6 +89,9 @@ int run(int argc, char** argv, qjulia::mpi::MpiComm& comm) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // malloc as in `qjulia mesh`: blocks up to 32 MiB from the heap, which keeps its free top, and
+  // a worker thread's heap made whole at once (see malloc_setup.h).
+  qjulia::cli::fix_malloc_thresholds();
   int provided = 0;
   MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
   qjulia::cli::install_signal_handlers();
