@@ -110,11 +110,12 @@ for signal in INT TERM; do
 done
 
 # A rank failing mid-run: rank 1 runs out of address space (its limit is set below the run's
-# need but above what MPI needs to start), the job exits non-zero, no file.
+# need, about 450 MB, but above what MPI needs to start, more than 250 MB with malloc on huge pages:
+# below that a rank can stop inside MPI_Init), the job exits non-zero, no file.
 rm -rf "$work/sig" && mkdir "$work/sig"
 set +e
 "$mpiexec" -n 1 "$qjulia_mpi" mesh --resolution 512 --threads 1 --quiet -o "$work/sig/big.ply" \
-  : -n 1 sh -c 'ulimit -v 240000 && exec "$0" "$@"' "$qjulia_mpi" mesh --resolution 512 \
+  : -n 1 sh -c 'ulimit -v 350000 && exec "$0" "$@"' "$qjulia_mpi" mesh --resolution 512 \
   --threads 1 --quiet -o "$work/sig/big.ply" >"$work/fail.out" 2>&1
 code=$?
 set -e

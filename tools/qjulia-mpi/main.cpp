@@ -88,6 +88,12 @@ int run(int argc, char** argv, qjulia::mpi::MpiComm& comm) {
 
 }  // namespace
 
+// `qjulia-mpi mesh` restarts once with malloc on huge pages, as `qjulia mesh` does (before the
+// libraries' initialisers and MPI_Init; the process keeps its pid, arguments and environment).
+__attribute__((section(".preinit_array"),
+               used)) static void (*kRestartEarly)(int, char**,
+                                                   char**) = &qjulia::cli::restart_early;
+
 int main(int argc, char** argv) {
   // malloc as in `qjulia mesh`: blocks up to 32 MiB from the heap, which keeps its free top, and
   // a worker thread's heap made whole at once (see malloc_setup.h).
