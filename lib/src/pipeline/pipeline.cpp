@@ -321,6 +321,21 @@ DistributedRun run_pipeline_distributed(const Params& params, const PipelineOpti
     estimate_and_check(solid, plan, opts, stats, " (rank 0)");
   });
   timer.stop();
+  // Whether the ranks hand back the memory they free, and the limit their passes keep to: rank
+  // 0's verdict from the estimate of the largest rank, the same on every rank.
+  bool give_back = true;
+  std::uint64_t memory_limit = 0;
+  {
+    Packer p;
+    if (comm.rank() == 0) {
+      p.put<std::uint8_t>(return_free_memory(stats));
+      p.put<std::uint64_t>(stats.memory_limit);
+    }
+    comm.broadcast(p.data);
+    Unpacker u(p.data);
+    give_back = u.get<std::uint8_t>() != 0;
+    memory_limit = u.get<std::uint64_t>();
+  }
 
   detail::Distribution dist;
   dist.comm = &comm;
@@ -329,6 +344,7 @@ DistributedRun run_pipeline_distributed(const Params& params, const PipelineOpti
   sopts.dense = opts.dense;
   sopts.cancel = opts.cancel;
   sopts.distribution = &dist;
+  sopts.return_free_memory = give_back;
   sopts.progress = timer.start("sample");
   SampledGrid grid = sample(solid, sopts);
   timer.stop();
@@ -337,7 +353,9 @@ DistributedRun run_pipeline_distributed(const Params& params, const PipelineOpti
   me.evaluations = grid.evaluations();
   record_grid(grid, &comm, stats);
 
-  const ExtractOptions eopts = extract_options(params, opts, timer);
+  ExtractOptions eopts = extract_options(params, opts, timer);
+  eopts.return_free_memory = give_back;
+  eopts.memory_limit = memory_limit;
   ExtractStats estats;
   auto part = std::make_unique<detail::MeshPart>();
   TriMesh mesh = detail::extract_part(std::move(grid), eopts, estats, *part);

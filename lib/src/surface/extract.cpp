@@ -638,8 +638,9 @@ struct BrickMesher {
     if (edges_total + centres_total > 0xffffffffu)
       throw TooLarge("the mesh has " + std::to_string(edges_total + centres_total) +
                      " vertices; 32-bit indices hold at most 4294967295");
-    // A rank of a distributed run hands back all it frees (its part is not the whole mesh).
-    if (!part) budget = memory_budget(opts, edges_local + centres_local, faces_local);
+    // A rank of a distributed run keeps to the same bound for its part (its own vertices and
+    // faces; the ghosts are a plane of vertices).
+    budget = memory_budget(opts, edges_local + centres_local, faces_local);
   }
 
   // The mesh's vertices: each brick's edge and centre vertices moved to their numbers.
