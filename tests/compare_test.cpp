@@ -14,6 +14,7 @@
 #include <sstream>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "qjulia/base/error.h"
 #include "qjulia/field/params.h"
@@ -222,12 +223,23 @@ CliRun run_cli(const std::string& args) {
   return r;
 }
 
+// The scratch folders made in this process, removed when it ends.
+struct ScratchDirs {
+  std::vector<std::filesystem::path> made;
+  ~ScratchDirs() {
+    std::error_code ec;
+    for (const auto& d : made) std::filesystem::remove_all(d, ec);
+  }
+};
+
 std::filesystem::path scratch_dir(const std::string& name) {
+  static ScratchDirs dirs;
   // One folder per test process: ctest runs the tests in parallel.
   const auto dir = std::filesystem::temp_directory_path() /
                    ("qjulia_compare_test_" + std::to_string(::getpid()) + "_" + name);
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
+  dirs.made.push_back(dir);
   return dir;
 }
 

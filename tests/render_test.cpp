@@ -464,6 +464,8 @@ int run_cli(const std::string& args, std::string* output = nullptr) {
     std::ifstream in(log);
     output->assign(std::istreambuf_iterator<char>(in), {});
   }
+  std::error_code ec;
+  std::filesystem::remove(log, ec);
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 

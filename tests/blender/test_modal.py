@@ -179,6 +179,8 @@ def run(test=steps()):
         traceback.print_exc()
         code = 1
     shutil.rmtree(TMP, True)
+    # os._exit skips Blender's own cleanup, which removes its session's temporary folder.
+    shutil.rmtree(bpy.app.tempdir, True)
     os._exit(code)  # ends Blender at once, with the code
 
 
