@@ -331,8 +331,9 @@ struct BrickSampler::Impl {
     return a;
   }
 
-  // The value of global point g from a neighbour brick or the coarse lattice, if one has it.
-  bool lookup(const Brick& br, const Around& a, const int g[3], float* v) const {
+  // Where the value of global point g is kept by a neighbour brick or the coarse lattice, if one
+  // has it; null otherwise.
+  const float* locate(const Brick& br, const Around& a, const int g[3]) const {
     int lo[3], hi[3], faces = 0;
     for (int k = 0; k < 3; ++k) {
       const int b = (k == 0 ? br.at.x : k == 1 ? br.at.y : br.at.z);
@@ -345,7 +346,7 @@ struct BrickSampler::Impl {
     }
     // A point inside the brick is in no neighbour, nor in the lattice (whose points are brick
     // corners).
-    if (faces == 0) return false;
+    if (faces == 0) return nullptr;
     for (int dx = lo[0]; dx <= hi[0]; ++dx)
       for (int dy = lo[1]; dy <= hi[1]; ++dy)
         for (int dz = lo[2]; dz <= hi[2]; ++dz) {
@@ -354,10 +355,7 @@ struct BrickSampler::Impl {
           if (!n) continue;
           const int p = point_index(g[0] - n->at.x * kBrick, g[1] - n->at.y * kBrick,
                                     g[2] - n->at.z * kBrick);
-          if (n->known.test(p)) {
-            *v = n->get(p);
-            return true;
-          }
+          if (n->known.test(p)) return n->where(p);
         }
     if (lattice && faces == 3) {
       constexpr int s = kCoarse;
@@ -367,18 +365,23 @@ struct BrickSampler::Impl {
       };
       if (g[0] % s == 0 && g[1] % s == 0 && g[2] % s == 0 &&
           in_lattice(g[0] / s, g[1] / s, g[2] / s)) {
-        *v = lattice[lattice_at(g[0] / s, g[1] / s, g[2] / s)];
-        return true;
+        return &lattice[lattice_at(g[0] / s, g[1] / s, g[2] / s)];
       }
       if (g[0] % s == s / 2 && g[1] % s == s / 2 && g[2] % s == s / 2) {
         const int i = g[0] / s, j = g[1] / s, k = g[2] / s;
         if (i <= lattice_hi[0] && j <= lattice_hi[1] && k <= lattice_hi[2]) {
-          *v = centres[lattice_at(i, j, k)];
-          return true;
+          return &centres[lattice_at(i, j, k)];
         }
       }
     }
-    return false;
+    return nullptr;
+  }
+
+  // The value of global point g from a neighbour brick or the coarse lattice, if one has it.
+  bool lookup(const Brick& br, const Around& a, const int g[3], float* v) const {
+    const float* at = locate(br, a, g);
+    if (at) *v = *at;
+    return at != nullptr;
   }
 
   // Makes the listed local points of `brick` known: copied from a neighbour or the lattice, or
@@ -417,13 +420,24 @@ struct BrickSampler::Impl {
       // Only points on the brick's faces can be held by a neighbour or the lattice (whose
       // points are brick corners).
       const Pts shared = avail ? want & (*avail | (t.level8 & t.face)) : want & t.face;
+      // First where each value is (its cache line fetched meanwhile: the neighbours' values are
+      // scattered over the heap), then the values.
+      thread_local std::vector<std::pair<int, const float*>> found;
+      found.clear();
       for (int w = 0; w < Pts::kWords; ++w)
         for (std::uint64_t bits = shared.w[w]; bits; bits &= bits - 1) {
           const int p = w * 64 + __builtin_ctzll(bits);
           const int g[3] = {base[0] + t.at[p][0], base[1] + t.at[p][1], base[2] + t.at[p][2]};
-          if (g[0] >= 0 && g[1] >= 0 && g[2] >= 0 && lookup(br, a, g, br.slot(p)))
-            want.w[w] &= ~(std::uint64_t{1} << (p & 63));
+          if (g[0] < 0 || g[1] < 0 || g[2] < 0) continue;
+          if (const float* at = locate(br, a, g)) {
+            __builtin_prefetch(at);
+            found.emplace_back(p, at);
+          }
         }
+      for (const auto& [p, at] : found) {
+        *br.slot(p) = *at;
+        want.w[p >> 6] &= ~(std::uint64_t{1} << (p & 63));
+      }
     }
     for (int w = 0; w < Pts::kWords; ++w)
       for (std::uint64_t bits = want.w[w]; bits; bits &= bits - 1) {

@@ -117,11 +117,13 @@ struct Brick {
   Bits<kBrickPoints> known;  ///< points whose value is known
 
   /// F at known point p (the virtual value outside the grid or a clip).
-  float get(int p) const {
-    if (full) return full[p];
+  float get(int p) const { return *where(p); }
+  /// Where the value of known point p is kept, in either form.
+  const float* where(int p) const {
+    if (full) return &full[p];
     const std::size_t r = rank[p >> 6];
     const std::uint64_t below = known.w[p >> 6] & ((std::uint64_t{1} << (p & 63)) - 1);
-    return packed[r + static_cast<std::size_t>(popcount64(below))];
+    return &packed[r + static_cast<std::size_t>(popcount64(below))];
   }
   /// Where the value of point p goes (the brick must be unpacked).
   float* slot(int p) { return &full[p]; }
