@@ -16,6 +16,7 @@
 #include <utility>
 #include <vector>
 
+#include "io_fixtures.h"
 #include "qjulia/base/error.h"
 #include "qjulia/field/params.h"
 #include "qjulia/io/mesh_io.h"
@@ -223,30 +224,11 @@ CliRun run_cli(const std::string& args) {
   return r;
 }
 
-// The scratch folders made in this process, removed when it ends.
-struct ScratchDirs {
-  std::vector<std::filesystem::path> made;
-  ~ScratchDirs() {
-    std::error_code ec;
-    for (const auto& d : made) std::filesystem::remove_all(d, ec);
-  }
-};
-
-std::filesystem::path scratch_dir(const std::string& name) {
-  static ScratchDirs dirs;
-  // One folder per test process: ctest runs the tests in parallel.
-  const auto dir = std::filesystem::temp_directory_path() /
-                   ("qjulia_compare_test_" + std::to_string(::getpid()) + "_" + name);
-  std::filesystem::remove_all(dir);
-  std::filesystem::create_directories(dir);
-  dirs.made.push_back(dir);
-  return dir;
-}
-
 }  // namespace
 
 TEST(CompareCli, GarbageMeshFileExitsTwoNamingTheFileAndTheReason) {
-  const auto dir = scratch_dir("garbage");
+  const io_fixtures::TempDir scratch("compare_test_garbage");
+  const auto& dir = scratch.path();
   const std::string garbage = (dir / "garbage.obj").string();
   std::ofstream(garbage) << "this is not a mesh\n\x01\x02\x03";
   const auto r = run_cli("compare " + garbage + " " + garbage);
@@ -257,7 +239,8 @@ TEST(CompareCli, GarbageMeshFileExitsTwoNamingTheFileAndTheReason) {
 }
 
 TEST(CompareCli, MissingMeshFileExitsTwoNamingTheFile) {
-  const auto dir = scratch_dir("missing");
+  const io_fixtures::TempDir scratch("compare_test_missing");
+  const auto& dir = scratch.path();
   const std::string missing = (dir / "nowhere.ply").string();
   const auto r = run_cli("compare " + missing + " " + missing);
   EXPECT_EQ(r.exit_code, 2) << r.output;
@@ -272,7 +255,8 @@ TEST(CompareCli, NeedsExactlyTwoSurfaces) {
 }
 
 TEST(CompareCli, TwoPresetsGiveATableAndJson) {
-  const auto dir = scratch_dir("presets");
+  const io_fixtures::TempDir scratch("compare_test_presets");
+  const auto& dir = scratch.path();
   const std::string json = (dir / "c.json").string();
   const auto r = run_cli(
       "compare --preset newton-cubic --preset newton-escape --resolution 24 --samples 20000 "
@@ -289,7 +273,8 @@ TEST(CompareCli, TwoPresetsGiveATableAndJson) {
 }
 
 TEST(ExperimentCli, CardioidDistanceShrinksAsIterationsGrow) {
-  const auto dir = scratch_dir("cardioid");
+  const io_fixtures::TempDir scratch("compare_test_cardioid");
+  const auto& dir = scratch.path();
   const auto r = run_cli(
       "experiment cardioid --resolution 32 --iterations 6,16 --samples 20000 "
       "--out " +
@@ -322,7 +307,8 @@ TEST(ExperimentCli, CardioidDistanceShrinksAsIterationsGrow) {
 }
 
 TEST(ExperimentCli, Table1ShowsTheEscapeMethodFailingOnNewtonsCubic) {
-  const auto dir = scratch_dir("table1");
+  const io_fixtures::TempDir scratch("compare_test_table1");
+  const auto& dir = scratch.path();
   const auto r = run_cli("experiment table1 --resolution 24 --samples 20000 --out " + dir.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   std::ifstream in(dir / "table1.csv");
@@ -375,7 +361,8 @@ TEST(ExperimentCli, UnknownExperimentExitsTwo) {
 }
 
 TEST(CompareCli, ColoredWritesAWithItsDistanceRampAndTheLegend) {
-  const auto dir = scratch_dir("colored");
+  const io_fixtures::TempDir scratch("compare_test_colored");
+  const auto& dir = scratch.path();
   const std::string a = (dir / "a.ply").string(), b = (dir / "b.ply").string(),
                     out = (dir / "colored.ply").string();
   qjulia::write_mesh(a, icosphere(3));

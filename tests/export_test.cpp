@@ -37,23 +37,7 @@ float srgb(float c) {
   return c <= 0.0031308f ? 12.92f * c : 1.055f * std::pow(c, 1.0f / 2.4f) - 0.055f;
 }
 
-class TempDir {
- public:
-  TempDir() {
-    path_ = fs::temp_directory_path() /
-            ("qjulia_export_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter_++));
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-  std::size_t entries() const {
-    return std::size_t(std::distance(fs::directory_iterator(path_), fs::directory_iterator()));
-  }
-
- private:
-  fs::path path_;
-  static inline int counter_ = 0;
-};
+using io_fixtures::TempDir;
 
 const char* kParams = R"({"formula": "h^2", "method": "escape", "iterations": 12,
   "bailout": 4.0, "constants": {"c": [0.1, -0.2, 0, 0]}, "note": "a \"quoted\"\nline"})";
@@ -142,7 +126,7 @@ void expect_round_trip(const std::string& ext, bool colored) {
   } else {
     EXPECT_TRUE(back.colors.empty());
   }
-  EXPECT_EQ(dir.entries(), ext == ".gltf" ? 2u : 1u);  // no temporary file left behind
+  EXPECT_EQ(dir.names().size(), ext == ".gltf" ? 2u : 1u);  // no temporary file left behind
 }
 
 using io_fixtures::kExtensions;
@@ -175,7 +159,7 @@ TEST(Export, UnknownExtensionThrowsNamingItAndTheAcceptedOnes) {
   EXPECT_THROW(qjulia::format_from_path("dir.glb/mesh"), InvalidInput);
   TempDir dir;
   EXPECT_THROW(qjulia::write_mesh(dir.file("m.xyz"), icosphere(0)), InvalidInput);
-  EXPECT_EQ(dir.entries(), 0u);
+  EXPECT_EQ(dir.names().size(), 0u);
 }
 
 TEST(Export, EveryFormatReadsBackWhatWasWritten) {
@@ -324,7 +308,7 @@ TEST(Export, AFailedWriteLeavesNoFile) {
     EXPECT_THROW(qjulia::write_mesh(dir.file("m" + ext), icosphere(0), {"{not json", "", {}}),
                  InvalidInput);
   }
-  EXPECT_EQ(dir.entries(), 0u);
+  EXPECT_EQ(dir.names().size(), 0u);
 }
 
 TEST(Export, AnExistingFileIsReplacedWhole) {
@@ -334,7 +318,7 @@ TEST(Export, AnExistingFileIsReplacedWhole) {
   qjulia::write_mesh(path, icosphere(1));
   EXPECT_LT(fs::file_size(path), 10'000u);
   EXPECT_EQ(qjulia::read_mesh(path).triangles.size(), 80u);
-  EXPECT_EQ(dir.entries(), 1u);
+  EXPECT_EQ(dir.names().size(), 1u);
 }
 
 TEST(Export, CancellingBeforeWritingLeavesNoFile) {
@@ -342,7 +326,7 @@ TEST(Export, CancellingBeforeWritingLeavesNoFile) {
   qjulia::ExportOptions opts;
   opts.progress = [](double) { return false; };
   EXPECT_THROW(qjulia::write_mesh(dir.file("m.glb"), icosphere(1), opts), qjulia::Cancelled);
-  EXPECT_EQ(dir.entries(), 0u);
+  EXPECT_EQ(dir.names().size(), 0u);
 }
 
 TEST(Export, GarbageTruncatedOrMissingFilesThrowNamingTheFile) {

@@ -1,6 +1,7 @@
 #pragma once
-// Helpers of the io tests (io_test.cpp, io_fault_test.cpp): a temporary directory, files as
-// bytes, a tmpfs mount of a given size (the tests run as root), and the CLI run in a shell.
+// Helpers of the tests that write files (io, io_fault, export, compare, render): a temporary
+// directory, files as bytes, a tmpfs mount of a given size (the tests run as root), and the CLI run
+// in a shell.
 #include <gtest/gtest.h>
 #include <sys/mount.h>
 #include <sys/wait.h>

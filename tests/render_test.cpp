@@ -16,6 +16,7 @@
 #include <string>
 #include <utility>
 
+#include "io_fixtures.h"
 #include "qjulia/base/error.h"
 #include "qjulia/io/mesh_io.h"
 #include "qjulia/render/contact_sheet.h"
@@ -471,17 +472,8 @@ int run_cli(const std::string& args, std::string* output = nullptr) {
 
 class RenderCli : public ::testing::Test {
  protected:
-  void SetUp() override {
-    // One folder per test process: ctest runs the tests in parallel.
-    dir_ = std::filesystem::temp_directory_path() /
-           ("qjulia_render_cli_" + std::to_string(::getpid()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    std::filesystem::remove_all(dir_);
-    std::filesystem::create_directories(dir_);
-  }
-  void TearDown() override { std::filesystem::remove_all(dir_); }
-  std::string path(const std::string& name) const { return (dir_ / name).string(); }
-  std::filesystem::path dir_;
+  std::string path(const std::string& name) const { return dir_.file(name); }
+  io_fixtures::TempDir dir_{"render_cli"};  // one per test: ctest runs the tests in parallel
 };
 
 TEST_F(RenderCli, RendersAMeshFileWithTheGivenOptions) {
