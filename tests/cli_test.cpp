@@ -517,6 +517,22 @@ TEST_F(Cli, MeshWritesTheMeshAndTheStatsOfTheUnitBall) {
   EXPECT_NE(r.out.find("ball.ply"), std::string::npos) << r.out;
 }
 
+// The summary line's share of a dense grid: a percentage on the sparse path; on the dense path
+// (which evaluates each brick's 9^3 points, more calls than grid points) the factor, never a
+// share above 100%.
+TEST_F(Cli, SummarySaysHowTheGridEvaluationsCompareWithTheGridPoints) {
+  const CliRun sparse = run("mesh --preset unit-ball --resolution 64 -o a.ply");
+  ASSERT_EQ(sparse.code, 0) << sparse.err;
+  EXPECT_NE(sparse.out.find("of 262144 dense)"), std::string::npos) << sparse.out;
+  for (const char* dense : {"--resolution 17", "--resolution 64 --dense"}) {
+    const CliRun r = run(std::string("mesh --preset unit-ball -o b.ply ") + dense);
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_EQ(r.out.find("% of"), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find("x the "), std::string::npos) << r.out;
+    EXPECT_NE(r.out.find(" grid points: each brick's 9^3"), std::string::npos) << r.out;
+  }
+}
+
 // `--stats -`: the JSON alone on standard output (the summary moves to standard error), and
 // no file named "-"; the other outputs take file names only.
 TEST_F(Cli, StatsToStandardOutputAreTheStatsOfTheFileWritten) {
