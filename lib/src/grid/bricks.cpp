@@ -2,8 +2,10 @@
 
 #include <malloc.h>
 #include <tbb/enumerable_thread_specific.h>
+#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
@@ -204,7 +206,7 @@ class BrickMap {
 
 void Brick::unpack() {
   if (full) return;
-  full.reset(new float[kBrickPoints]);
+  full.make(kBrickPoints);
   if (packed) {
     std::size_t n = 0;
     for (int w = 0; w < (kBrickPoints + 63) / 64; ++w)
@@ -217,7 +219,7 @@ void Brick::unpack() {
 void Brick::pack() {
   if (!full) return;
   const std::size_t n = known.count();
-  packed.reset(new float[std::max<std::size_t>(n, 1)]);
+  packed.make(std::max<std::size_t>(n, 1));
   std::size_t k = 0;
   for (int w = 0; w < (kBrickPoints + 63) / 64; ++w) {
     rank[w] = static_cast<std::uint16_t>(k);
@@ -242,7 +244,7 @@ void Brick::assign(const Bits<kBrickPoints>& known_points, const float* values) 
   full.reset();
   known = known_points;
   const std::size_t n = known.count();
-  packed.reset(new float[std::max<std::size_t>(n, 1)]);
+  packed.make(std::max<std::size_t>(n, 1));
   std::copy(values, values + n, packed.get());
   std::size_t k = 0;
   for (int w = 0; w < (kBrickPoints + 63) / 64; ++w) {
@@ -1500,6 +1502,11 @@ struct BrickSampler::Sampling {
 };
 
 BrickList BrickSampler::run() {
+  // One thread: the bricks from the pool (see brick_pool.h), unless another grid's are in use.
+  const int threads = std::min<int>(std::max(1, tbb::this_task_arena::max_concurrency()),
+                                    static_cast<int>(tbb::global_control::active_value(
+                                        tbb::global_control::max_allowed_parallelism)));
+  pool_prefer(threads == 1);
   Sampling s(solid_, geo_, opts_, interior_);
   if (s.dense_path())
     s.dense();

@@ -10,6 +10,7 @@
 #include <memory>
 #include <vector>
 
+#include "grid/brick_pool.h"
 #include "qjulia/field/classify.h"
 #include "qjulia/grid/sample.h"
 
@@ -109,9 +110,40 @@ Bits<N> shifted(const Bits<N>& b, int k) {
   return r;
 }
 
+/// An array of n floats from the brick pool (n fixed when made), or none.
+class PoolFloats {
+ public:
+  PoolFloats() = default;
+  PoolFloats(const PoolFloats&) = delete;
+  PoolFloats& operator=(const PoolFloats&) = delete;
+  ~PoolFloats() { reset(); }
+  /// Frees the array and makes one of n floats (n >= 1), uninitialised.
+  void make(std::size_t n) {
+    reset();
+    data_ = static_cast<float*>(pool_allocate(n * sizeof(float)));
+    size_ = static_cast<std::uint32_t>(n);
+  }
+  void reset() noexcept {
+    pool_free(data_, size_ * sizeof(float));
+    data_ = nullptr;
+    size_ = 0;
+  }
+  explicit operator bool() const { return data_ != nullptr; }
+  float& operator[](std::size_t i) const { return data_[i]; }
+  float* get() const { return data_; }
+
+ private:
+  float* data_ = nullptr;
+  std::uint32_t size_ = 0;
+};
+
 /// One brick of the sampled grid. The fields a neighbour reads (where it is, which points are
 /// known, their values) come first, in the brick's first cache lines.
 struct Brick {
+  // From the brick pool, as are its values.
+  static void* operator new(std::size_t bytes) { return pool_allocate(bytes); }
+  static void operator delete(void* p, std::size_t bytes) noexcept { pool_free(p, bytes); }
+
   BrickCoord at;
   std::uint64_t key = 0;
   Bits<kBrickPoints> known;  ///< points whose value is known
@@ -139,8 +171,8 @@ struct Brick {
   void known_values(std::vector<float>& out) const;
 
  private:
-  std::unique_ptr<float[]> full;                      // kBrickPoints values, while sampled
-  std::unique_ptr<float[]> packed;                    // the known values in point order, otherwise
+  PoolFloats full;                                    // kBrickPoints values, while sampled
+  PoolFloats packed;                                  // the known values in point order, otherwise
   std::uint16_t rank[(kBrickPoints + 63) / 64] = {};  // known points before each word
 
  public:
@@ -161,6 +193,8 @@ struct Brick {
   /// The 26 neighbours (index (dx + 1) * 9 + (dy + 1) * 3 + dz + 1), null where none exists.
   Brick* around[27] = {};
 };
+
+static_assert(sizeof(Brick) <= kPoolLargest && alignof(Brick) <= 64);
 
 /// The bricks of a sampled grid, sorted by key.
 using BrickList = std::vector<std::unique_ptr<Brick>>;

@@ -1,0 +1,155 @@
+// The brick pool (grid/brick_pool.h): blocks from slabs, reused, every slab handed back with the
+// last block; the mode changes only when no block is in use; one-thread sampling uses it and
+// gives the bricks that malloc's blocks give. Each test runs in its own process (the pool is
+// the process's).
+#include "grid/brick_pool.h"
+
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
+
+#include <cstdint>
+#include <cstring>
+#include <random>
+#include <thread>
+#include <vector>
+
+#include "grid/bricks.h"
+#include "grid/grid_impl.h"
+#include "qjulia/field/params.h"
+#include "qjulia/grid/sample.h"
+
+namespace qjulia {
+namespace {
+
+using detail::pool_allocate;
+using detail::pool_free;
+using detail::pool_prefer;
+using detail::pool_usage;
+
+TEST(BrickPool, ServesFromSlabsReusesFreedBlocksAndHandsEverySlabBackWithTheLast) {
+  ASSERT_TRUE(pool_prefer(true));
+  const std::size_t sizes[] = {4, 64, 65, 700, 2916, detail::kPoolLargest};
+  std::vector<std::pair<void*, std::size_t>> blocks;
+  for (int i = 0; i < 3000; ++i) {
+    const std::size_t n = sizes[i % 6];
+    void* b = pool_allocate(n);
+    ASSERT_EQ(reinterpret_cast<std::uintptr_t>(b) % 64, 0u) << n;
+    std::memset(b, i & 0xff, n);
+    blocks.push_back({b, n});
+  }
+  // 3000 blocks of 1.3 KB on average: several slabs of 1 MiB.
+  EXPECT_GT(pool_usage().slabs, 2u);
+  EXPECT_EQ(pool_usage().blocks, 3000u);
+  // Each block still holds what was written to it: none overlaps another.
+  for (std::size_t i = 0; i < blocks.size(); ++i)
+    for (std::size_t k = 0; k < blocks[i].second; k += 61)
+      ASSERT_EQ(static_cast<unsigned char*>(blocks[i].first)[k], i & 0xff) << i;
+  // A freed block is the next one of its size (and of sizes that round to the same 64 bytes).
+  void* freed = blocks[3].first;  // 700 bytes
+  pool_free(freed, 700);
+  const std::size_t slabs = pool_usage().slabs;
+  EXPECT_EQ(pool_allocate(690), freed);
+  EXPECT_EQ(pool_usage().slabs, slabs);
+  for (const auto& [b, n] : blocks) pool_free(b, n);
+  EXPECT_EQ(pool_usage().blocks, 0u);
+  EXPECT_EQ(pool_usage().slabs, 0u);
+  EXPECT_TRUE(pool_usage().pooled);
+  EXPECT_THROW(pool_allocate(detail::kPoolLargest + 1), std::bad_alloc);
+  EXPECT_EQ(pool_usage().blocks, 0u);
+}
+
+TEST(BrickPool, ChangesModeOnlyWhenNoBlockIsInUse) {
+  ASSERT_FALSE(pool_prefer(false));
+  void* a = pool_allocate(100);     // from malloc
+  EXPECT_FALSE(pool_prefer(true));  // a block is in use
+  EXPECT_EQ(pool_usage().slabs, 0u);
+  EXPECT_EQ(pool_usage().blocks, 1u);
+  pool_free(a, 100);
+  EXPECT_TRUE(pool_prefer(true));
+  void* b = pool_allocate(100);  // from a slab
+  EXPECT_EQ(pool_usage().slabs, 1u);
+  EXPECT_TRUE(pool_prefer(false));  // stays: a block is in use
+  pool_free(b, 100);
+  EXPECT_EQ(pool_usage().slabs, 0u);
+  EXPECT_FALSE(pool_prefer(false));
+}
+
+TEST(BrickPool, ThreadsGetBlocksThatNeverOverlap) {
+  ASSERT_TRUE(pool_prefer(true));
+  std::vector<std::thread> threads;
+  std::vector<int> bad(4, 0);
+  for (int t = 0; t < 4; ++t)
+    threads.emplace_back([t, &bad] {
+      std::mt19937 rng(t);
+      std::vector<std::pair<unsigned char*, std::size_t>> mine;
+      for (int i = 0; i < 20000; ++i) {
+        if (!mine.empty() && rng() % 3 == 0) {
+          const std::size_t k = rng() % mine.size();
+          auto [b, n] = mine[k];
+          for (std::size_t j = 0; j < n; ++j) bad[t] += b[j] != static_cast<unsigned char>(t + n);
+          pool_free(b, n);
+          mine[k] = mine.back();
+          mine.pop_back();
+        } else {
+          const std::size_t n = 1 + rng() % 3000;
+          auto* b = static_cast<unsigned char*>(pool_allocate(n));
+          std::memset(b, static_cast<unsigned char>(t + n), n);
+          mine.push_back({b, n});
+        }
+      }
+      for (auto [b, n] : mine) {
+        for (std::size_t j = 0; j < n; ++j) bad[t] += b[j] != static_cast<unsigned char>(t + n);
+        pool_free(b, n);
+      }
+    });
+  for (auto& th : threads) th.join();
+  for (int t = 0; t < 4; ++t) EXPECT_EQ(bad[t], 0) << "thread " << t;
+  EXPECT_EQ(pool_usage().blocks, 0u);
+  EXPECT_EQ(pool_usage().slabs, 0u);
+}
+
+// The bricks and their values, in order.
+std::vector<float> contents(const detail::BrickList& bricks) {
+  std::vector<float> out;
+  for (const auto& b : bricks) {
+    out.push_back(static_cast<float>(b->key));
+    for (int p = 0; p < detail::kBrickPoints; ++p)
+      if (b->known.test(p)) out.push_back(b->get(p));
+    out.push_back(static_cast<float>(b->surface.count()));
+  }
+  return out;
+}
+
+TEST(BrickPool, OneThreadSamplesIntoThePoolAndGetsTheBricksOfTwoThreads) {
+  Params p = preset("classic-julia");
+  p.resolution = 96;
+  std::vector<float> one, two;
+  {
+    tbb::global_control single(tbb::global_control::max_allowed_parallelism, 1);
+    const SampledGrid g = sample(p);
+    const detail::PoolUsage u = pool_usage();
+    EXPECT_TRUE(u.pooled);
+    EXPECT_GT(u.slabs, 0u);
+    EXPECT_GE(u.blocks, g.impl().bricks.size());
+    one = contents(g.impl().bricks);
+  }
+  EXPECT_EQ(pool_usage().blocks, 0u);
+  EXPECT_EQ(pool_usage().slabs, 0u);
+  {
+    tbb::global_control pair(tbb::global_control::max_allowed_parallelism, 2);
+    const SampledGrid g = sample(p);
+    if (tbb::this_task_arena::max_concurrency() >= 2) {
+      EXPECT_FALSE(pool_usage().pooled);
+      EXPECT_EQ(pool_usage().slabs, 0u);
+    }
+    EXPECT_GE(pool_usage().blocks, g.impl().bricks.size());
+    two = contents(g.impl().bricks);
+  }
+  EXPECT_EQ(pool_usage().blocks, 0u);
+  EXPECT_GT(one.size(), 1000u);
+  EXPECT_EQ(one, two);
+}
+
+}  // namespace
+}  // namespace qjulia
