@@ -1,9 +1,7 @@
 #include "qjulia/base/mesh.h"
 
-#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
@@ -11,6 +9,7 @@
 #include "base/first_touch.h"
 #include "base/geometry.h"
 #include "base/mesh_check.h"
+#include "base/threads.h"
 #include "base/union_find.h"
 #include "qjulia/base/progress.h"
 #include "qjulia/base/validate.h"
@@ -213,11 +212,9 @@ std::vector<std::array<float, 3>> area_weighted_normals(const TriMesh& mesh) {
   auto position = [&](std::uint32_t v) -> const auto& { return mesh.positions[v]; };
   constexpr int kRunShift = 12;          // a lane's runs: 4096 vertices, a brick's vertices or more
   constexpr std::uint8_t kMixed = 0xff;  // a face with corners in more than one lane
-  // One lane per thread that may run (the arena's size ignores a global_control limit such as
-  // --threads 1); a power of two, so a vertex's lane is a mask, and below kMixed.
-  const std::size_t threads = std::min<std::size_t>(
-      static_cast<std::size_t>(std::max(1, tbb::this_task_arena::max_concurrency())),
-      tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+  // One lane per thread that may run; a power of two, so a vertex's lane is a mask, and below
+  // kMixed.
+  const std::size_t threads = detail::threads_that_may_run();
   std::size_t lanes = 1;
   while (lanes * 2 <= std::min<std::size_t>(threads, 128)) lanes *= 2;
   const std::uint32_t lane_mask = static_cast<std::uint32_t>(lanes - 1);

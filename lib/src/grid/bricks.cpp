@@ -2,10 +2,8 @@
 
 #include <malloc.h>
 #include <tbb/enumerable_thread_specific.h>
-#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
-#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cmath>
@@ -14,6 +12,7 @@
 #include <mutex>
 
 #include "base/distribution.h"
+#include "base/threads.h"
 #include "qjulia/base/error.h"
 
 namespace qjulia::detail {
@@ -1503,10 +1502,7 @@ struct BrickSampler::Sampling {
 
 BrickList BrickSampler::run() {
   // One thread: the bricks from the pool (see brick_pool.h), unless another grid's are in use.
-  const int threads = std::min<int>(std::max(1, tbb::this_task_arena::max_concurrency()),
-                                    static_cast<int>(tbb::global_control::active_value(
-                                        tbb::global_control::max_allowed_parallelism)));
-  pool_prefer(threads == 1);
+  pool_prefer(threads_that_may_run() == 1);
   Sampling s(solid_, geo_, opts_, interior_);
   if (s.dense_path())
     s.dense();
