@@ -5,9 +5,11 @@
 #include "grid/brick_pool.h"
 
 #include <gtest/gtest.h>
+#include <sys/mman.h>
 #include <tbb/global_control.h>
 #include <tbb/task_arena.h>
 
+#include <cerrno>
 #include <cstdint>
 #include <cstring>
 #include <random>
@@ -31,16 +33,16 @@ TEST(BrickPool, ServesFromSlabsReusesFreedBlocksAndHandsEverySlabBackWithTheLast
   ASSERT_TRUE(pool_prefer(true));
   const std::size_t sizes[] = {4, 64, 65, 700, 2916, detail::kPoolLargest};
   std::vector<std::pair<void*, std::size_t>> blocks;
-  for (int i = 0; i < 3000; ++i) {
+  for (int i = 0; i < 6000; ++i) {
     const std::size_t n = sizes[i % 6];
     void* b = pool_allocate(n);
     ASSERT_EQ(reinterpret_cast<std::uintptr_t>(b) % 64, 0u) << n;
     std::memset(b, i & 0xff, n);
     blocks.push_back({b, n});
   }
-  // 3000 blocks of 1.3 KB on average: several slabs of 1 MiB.
+  // 6000 blocks of 1.3 KB on average: several slabs of 2 MiB.
   EXPECT_GT(pool_usage().slabs, 2u);
-  EXPECT_EQ(pool_usage().blocks, 3000u);
+  EXPECT_EQ(pool_usage().blocks, 6000u);
   // Each block still holds what was written to it: none overlaps another.
   for (std::size_t i = 0; i < blocks.size(); ++i)
     for (std::size_t k = 0; k < blocks[i].second; k += 61)
@@ -54,6 +56,15 @@ TEST(BrickPool, ServesFromSlabsReusesFreedBlocksAndHandsEverySlabBackWithTheLast
   for (const auto& [b, n] : blocks) pool_free(b, n);
   EXPECT_EQ(pool_usage().blocks, 0u);
   EXPECT_EQ(pool_usage().slabs, 0u);
+  // Back to the kernel: the pages of the first and the last block are no longer mapped.
+  const auto page_of = [](void* p) {
+    return reinterpret_cast<void*>(reinterpret_cast<std::uintptr_t>(p) & ~std::uintptr_t{4095});
+  };
+  for (void* b : {blocks.front().first, blocks.back().first}) {
+    unsigned char resident = 0;
+    EXPECT_EQ(mincore(page_of(b), 4096, &resident), -1);
+    EXPECT_EQ(errno, ENOMEM) << "the slab of " << b << " is still mapped";
+  }
   EXPECT_TRUE(pool_usage().pooled);
   EXPECT_THROW(pool_allocate(detail::kPoolLargest + 1), std::bad_alloc);
   EXPECT_EQ(pool_usage().blocks, 0u);

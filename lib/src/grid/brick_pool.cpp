@@ -1,10 +1,10 @@
 #include "grid/brick_pool.h"
 
 #include <immintrin.h>
+#include <sys/mman.h>
 
 #include <atomic>
 #include <cstdint>
-#include <cstdlib>
 #include <mutex>
 #include <new>
 #include <vector>
@@ -25,11 +25,38 @@ namespace {
 
 constexpr std::size_t kAlign = 64;
 constexpr std::size_t kClasses = kPoolLargest / kAlign;
-constexpr std::size_t kSlab = std::size_t{1} << 20;
+// A slab is one huge page: mapped on its own, aligned to its size, so the kernel can back it
+// with one huge page, and unmapped whole.
+constexpr std::size_t kSlab = std::size_t{2} << 20;
+static_assert(kSlab % kAlign == 0 && kSlab >= kPoolLargest);
+
+// A fresh slab from the kernel (twice its size mapped, the unaligned ends unmapped), or null.
+void* map_slab() {
+  void* p = mmap(nullptr, 2 * kSlab, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  if (p == MAP_FAILED) return nullptr;
+  const auto first = reinterpret_cast<std::uintptr_t>(p);
+  const auto at = (first + kSlab - 1) & ~(kSlab - 1);
+  if (at > first) munmap(p, at - first);
+  if (at + kSlab < first + 2 * kSlab)
+    munmap(reinterpret_cast<void*>(at + kSlab), first + 2 * kSlab - (at + kSlab));
+  madvise(reinterpret_cast<void*>(at), kSlab, MADV_HUGEPAGE);  // a hint: may be refused
+  return reinterpret_cast<void*>(at);
+}
 
 struct FreeBlock {
   FreeBlock* next;
 };
+
+// The first kAlign bytes of a slab: its blocks in use, and its place in the pool's list.
+struct SlabHeader {
+  std::uint32_t live = 0;
+  std::uint32_t index = 0;
+};
+static_assert(sizeof(SlabHeader) <= kAlign);
+
+SlabHeader& header_of(void* block) {
+  return *reinterpret_cast<SlabHeader*>(reinterpret_cast<std::uintptr_t>(block) & ~(kSlab - 1));
+}
 
 // A lock held for a few instructions: a thread that finds it taken spins instead of sleeping
 // (std::mutex made two threads' sampling 7% slower).
@@ -52,10 +79,13 @@ struct Pool {
   // changes only when no block is in use, so a block in use was made in the current mode.
   std::atomic<std::uint64_t> state{0};
   SpinLock lock;
-  std::vector<void*> slabs;  // as malloc gave them
-  char* next = nullptr;      // the unused rest of the newest slab
+  std::vector<void*> slabs;
+  char* next = nullptr;  // the unused rest of the newest slab
   char* end = nullptr;
   FreeBlock* free[kClasses] = {};
+  // Draining (drain()): freed blocks are not reused, and a slab is unmapped once its last block
+  // is freed; until no block of the pool is in use.
+  bool draining = false;
 
   static std::size_t class_of(std::size_t bytes) { return (bytes + kAlign - 1) / kAlign - 1; }
 
@@ -77,27 +107,53 @@ struct Pool {
       void* block = free[c];
       QJULIA_UNPOISON(block, size);
       free[c] = free[c]->next;
+      ++header_of(block).live;
       return block;
     }
     if (next == nullptr || static_cast<std::size_t>(end - next) < size) {
-      // A new slab, taken from malloc with the lock released (its first page is faulted in).
+      // A new slab, mapped with the lock released.
       held.unlock();
-      void* slab = std::malloc(kSlab + kAlign);
+      void* slab = map_slab();
       if (!slab) throw std::bad_alloc();
       held.lock();
       try {
         slabs.push_back(slab);
       } catch (...) {
-        std::free(slab);
+        munmap(slab, kSlab);
         throw;
       }
-      const auto at = (reinterpret_cast<std::uintptr_t>(slab) + kAlign - 1) & ~(kAlign - 1);
-      next = reinterpret_cast<char*>(at);
-      end = next + kSlab;
+      new (slab) SlabHeader{0, static_cast<std::uint32_t>(slabs.size() - 1)};
+      next = static_cast<char*>(slab) + kAlign;
+      end = static_cast<char*>(slab) + kSlab;
     }
     void* block = next;
     next += size;
+    ++header_of(block).live;
     return block;
+  }
+
+  // Unmaps a slab none of whose blocks is in use (the lock held).
+  void unmap(SlabHeader& h) noexcept {
+    char* const slab = reinterpret_cast<char*>(&h);
+    const std::uint32_t i = h.index;
+    slabs[i] = slabs.back();
+    static_cast<SlabHeader*>(slabs[i])->index = i;
+    slabs.pop_back();
+    if (next && next >= slab && next <= slab + kSlab) next = end = nullptr;
+    QJULIA_UNPOISON(slab, kSlab);
+    munmap(slab, kSlab);
+  }
+
+  void drain() noexcept {
+    std::lock_guard<SpinLock> held(lock);
+    if (!(state.load(std::memory_order_acquire) & 1) || slabs.empty()) return;
+    draining = true;
+    for (FreeBlock*& head : free) head = nullptr;  // their blocks stay free, and poisoned
+    next = end = nullptr;
+    for (std::size_t i = slabs.size(); i-- > 0;) {
+      SlabHeader& h = *static_cast<SlabHeader*>(slabs[i]);
+      if (h.live == 0) unmap(h);
+    }
   }
 
   void free_block(void* block, std::size_t bytes) noexcept {
@@ -109,7 +165,7 @@ struct Pool {
   }
 
   // One block fewer in use; `block` (when given) goes to its free list. The last block of the
-  // pool takes every slab back to malloc (which joins neighbouring ones into one free run).
+  // pool hands every slab back to the kernel.
   void release(void* block, std::size_t bytes, bool pooled) noexcept {
     if (!pooled) {
       state.fetch_sub(2, std::memory_order_acq_rel);
@@ -117,21 +173,27 @@ struct Pool {
     }
     std::lock_guard<SpinLock> held(lock);
     if (block) {
-      auto* f = static_cast<FreeBlock*>(block);
       const std::size_t c = class_of(bytes);
-      f->next = free[c];
-      free[c] = f;
+      SlabHeader& h = header_of(block);
+      --h.live;
+      if (!draining) {
+        auto* f = static_cast<FreeBlock*>(block);
+        f->next = free[c];
+        free[c] = f;
+      }
       QJULIA_POISON(block, (c + 1) * kAlign);
+      if (draining && h.live == 0) unmap(h);
     }
     if (state.fetch_sub(2, std::memory_order_acq_rel) >> 1 != 1) return;
     for (void* slab : slabs) {
-      QJULIA_UNPOISON(slab, kSlab + kAlign);
-      std::free(slab);
+      QJULIA_UNPOISON(slab, kSlab);
+      munmap(slab, kSlab);
     }
     slabs.clear();
     slabs.shrink_to_fit();
     next = end = nullptr;
     for (FreeBlock*& head : free) head = nullptr;
+    draining = false;
   }
 
   bool prefer(bool use_pool) {
@@ -154,6 +216,8 @@ void* pool_allocate(std::size_t bytes) { return pool().allocate(bytes); }
 void pool_free(void* block, std::size_t bytes) noexcept { pool().free_block(block, bytes); }
 
 bool pool_prefer(bool use_pool) { return pool().prefer(use_pool); }
+
+void pool_drain() noexcept { pool().drain(); }
 
 PoolUsage pool_usage() {
   Pool& p = pool();

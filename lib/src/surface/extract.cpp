@@ -16,6 +16,7 @@
 #include "base/first_touch.h"
 #include "base/geometry.h"
 #include "base/union_find.h"
+#include "grid/brick_pool.h"
 #include "grid/grid_impl.h"
 #include "qjulia/base/error.h"
 #include "qjulia/base/memory.h"
@@ -970,7 +971,12 @@ struct BrickMesher {
 };
 
 TriMesh BrickMesher::run() {
-  if (release) drop_empty_bricks();
+  if (release) {
+    // The bricks go from here on, and no brick is made: their slabs go to the system as they
+    // empty (brick_pool.h), for the mesh's arrays to take.
+    detail::pool_drain();
+    drop_empty_bricks();
+  }
   nb = impl.bricks.size();
   edge_vertices();  // pass one
   if (part) exchange_first_plane();
