@@ -1,13 +1,12 @@
-// The brick pool (grid/brick_pool.h): blocks from slabs, reused, every slab handed back with the
-// last block; the mode changes only when no block is in use; one-thread sampling uses it and
-// gives the bricks that malloc's blocks give. Each test runs in its own process (the pool is
-// the process's).
+// The brick pool (grid/brick_pool.h): blocks from slabs, reused, every slab unmapped with the
+// last block, or with its own last block while draining; each thread on slabs of its own; the
+// mode changes only when no block is in use; sampling on one thread and on two uses it and gives
+// the same bricks. Each test runs in its own process (the pool is the process's).
 #include "grid/brick_pool.h"
 
 #include <gtest/gtest.h>
 #include <sys/mman.h>
 #include <tbb/global_control.h>
-#include <tbb/task_arena.h>
 
 #include <cerrno>
 #include <cstdint>
@@ -132,7 +131,70 @@ std::vector<float> contents(const detail::BrickList& bricks) {
   return out;
 }
 
-TEST(BrickPool, OneThreadSamplesIntoThePoolAndGetsTheBricksOfTwoThreads) {
+TEST(BrickPool, DrainingUnmapsEachSlabWithItsLastBlockAndReusesNoFreedBlock) {
+  ASSERT_TRUE(pool_prefer(true));
+  // Blocks of 4 KB: 511 to a slab of 2 MiB (less its header); three slabs' worth.
+  std::vector<void*> blocks;
+  for (int i = 0; i < 1400; ++i) blocks.push_back(pool_allocate(detail::kPoolLargest));
+  const std::size_t slabs = pool_usage().slabs;
+  ASSERT_GE(slabs, 3u);
+  auto slab_of = [](void* p) { return reinterpret_cast<std::uintptr_t>(p) >> 21; };
+  auto mapped = [](void* p) {
+    unsigned char resident = 0;
+    void* page =
+        reinterpret_cast<void*>(reinterpret_cast<std::uintptr_t>(p) & ~std::uintptr_t{4095});
+    return mincore(page, 4096, &resident) == 0;
+  };
+  // A block freed before draining is reused; once draining, a freed block is not.
+  pool_free(blocks[1], detail::kPoolLargest);
+  EXPECT_EQ(pool_allocate(detail::kPoolLargest), blocks[1]);
+  detail::pool_drain();
+  pool_free(blocks[2], detail::kPoolLargest);
+  void* fresh = pool_allocate(detail::kPoolLargest);
+  EXPECT_NE(fresh, blocks[2]);
+  EXPECT_NE(slab_of(fresh), slab_of(blocks[0])) << "draining makes new blocks on a new slab";
+  blocks[2] = fresh;
+  // The first slab's blocks freed: that slab is unmapped at once, the others stay.
+  const auto first = slab_of(blocks[0]);
+  std::vector<void*> rest;
+  for (void* b : blocks)
+    if (slab_of(b) == first)
+      pool_free(b, detail::kPoolLargest);
+    else
+      rest.push_back(b);
+  EXPECT_FALSE(mapped(blocks[0]));
+  EXPECT_TRUE(mapped(rest.front()));
+  EXPECT_EQ(pool_usage().blocks, rest.size());
+  for (void* b : rest) pool_free(b, detail::kPoolLargest);
+  EXPECT_EQ(pool_usage().slabs, 0u);
+  // The last block ends the draining: freed blocks are reused again.
+  void* a = pool_allocate(100);
+  pool_free(a, 100);
+  void* b = pool_allocate(100);
+  EXPECT_EQ(a, b);
+  pool_free(b, 100);
+}
+
+TEST(BrickPool, EachThreadTakesBlocksFromSlabsOfItsOwn) {
+  ASSERT_TRUE(pool_prefer(true));
+  std::vector<void*> mine(100), theirs(100);
+  for (void*& b : mine) b = pool_allocate(640);
+  std::thread other([&] {
+    for (void*& b : theirs) b = pool_allocate(640);
+  });
+  other.join();
+  auto slab_of = [](void* p) { return reinterpret_cast<std::uintptr_t>(p) >> 21; };
+  for (void* b : theirs)
+    for (void* m : mine) ASSERT_NE(slab_of(b), slab_of(m));
+  EXPECT_EQ(pool_usage().slabs, 2u);
+  // A block goes back to the slab it came from, whichever thread frees it.
+  for (void* b : theirs) pool_free(b, 640);
+  EXPECT_EQ(pool_usage().slabs, 1u);
+  for (void* b : mine) pool_free(b, 640);
+  EXPECT_EQ(pool_usage().slabs, 0u);
+}
+
+TEST(BrickPool, OneAndTwoThreadsSampleIntoThePoolAndGetTheSameBricks) {
   Params p = preset("classic-julia");
   p.resolution = 96;
   std::vector<float> one, two;
@@ -150,10 +212,8 @@ TEST(BrickPool, OneThreadSamplesIntoThePoolAndGetsTheBricksOfTwoThreads) {
   {
     tbb::global_control pair(tbb::global_control::max_allowed_parallelism, 2);
     const SampledGrid g = sample(p);
-    if (tbb::this_task_arena::max_concurrency() >= 2) {
-      EXPECT_FALSE(pool_usage().pooled);
-      EXPECT_EQ(pool_usage().slabs, 0u);
-    }
+    EXPECT_TRUE(pool_usage().pooled);
+    EXPECT_GT(pool_usage().slabs, 0u);
     EXPECT_GE(pool_usage().blocks, g.impl().bricks.size());
     two = contents(g.impl().bricks);
   }

@@ -28,7 +28,9 @@ constexpr std::size_t kClasses = kPoolLargest / kAlign;
 // A slab is one huge page: mapped on its own, aligned to its size, so the kernel can back it
 // with one huge page, and unmapped whole.
 constexpr std::size_t kSlab = std::size_t{2} << 20;
-static_assert(kSlab % kAlign == 0 && kSlab >= kPoolLargest);
+static_assert(kSlab % kAlign == 0 && kSlab >= kPoolLargest + kAlign);
+// Threads take stripes in turn; more threads than stripes share them.
+constexpr std::uint32_t kStripes = 64;
 
 // A fresh slab from the kernel (twice its size mapped, the unaligned ends unmapped), or null.
 void* map_slab() {
@@ -47,10 +49,12 @@ struct FreeBlock {
   FreeBlock* next;
 };
 
-// The first kAlign bytes of a slab: its blocks in use, and its place in the pool's list.
+// The first kAlign bytes of a slab: its blocks in use, its place in its stripe's list, and the
+// stripe.
 struct SlabHeader {
   std::uint32_t live = 0;
   std::uint32_t index = 0;
+  std::uint32_t stripe = 0;
 };
 static_assert(sizeof(SlabHeader) <= kAlign);
 
@@ -72,67 +76,74 @@ class SpinLock {
   std::atomic<bool> locked_{false};
 };
 
-// One pool for the process: the bricks of several grids (tests, the explorer's previews) share
-// it, and its slabs go when none of their blocks is in use.
-struct Pool {
-  // The blocks in use (either kind) times 2, plus 1 while blocks come from the pool. The mode
-  // changes only when no block is in use, so a block in use was made in the current mode.
-  std::atomic<std::uint64_t> state{0};
+// The slabs of one thread (or of the threads that share its stripe), under its own lock: a
+// thread takes blocks from its stripe, and a block goes back to the stripe of its slab. Every
+// member is used with the lock held.
+struct alignas(64) Stripe {
   SpinLock lock;
+  std::uint32_t id = 0;
   std::vector<void*> slabs;
   char* next = nullptr;  // the unused rest of the newest slab
   char* end = nullptr;
   FreeBlock* free[kClasses] = {};
+  std::size_t live = 0;  // blocks in use, over the slabs
   // Draining (drain()): freed blocks are not reused, and a slab is unmapped once its last block
-  // is freed; until no block of the pool is in use.
+  // is freed; until no block of the stripe is in use.
   bool draining = false;
 
   static std::size_t class_of(std::size_t bytes) { return (bytes + kAlign - 1) / kAlign - 1; }
 
   void* allocate(std::size_t bytes) {
-    if (bytes == 0 || bytes > kPoolLargest) throw std::bad_alloc();
-    const std::uint64_t s = state.fetch_add(2, std::memory_order_acq_rel);
-    try {
-      return (s & 1) ? from_slabs(bytes) : ::operator new(bytes);
-    } catch (...) {
-      release(nullptr, 0, s & 1);  // not made after all
-      throw;
-    }
-  }
-
-  void* from_slabs(std::size_t bytes) {
     const std::size_t c = class_of(bytes), size = (c + 1) * kAlign;
-    std::unique_lock<SpinLock> held(lock);
+    void* block;
     if (free[c]) {
-      void* block = free[c];
+      block = free[c];
       QJULIA_UNPOISON(block, size);
       free[c] = free[c]->next;
-      ++header_of(block).live;
-      return block;
-    }
-    if (next == nullptr || static_cast<std::size_t>(end - next) < size) {
-      // A new slab, mapped with the lock released.
-      held.unlock();
-      void* slab = map_slab();
-      if (!slab) throw std::bad_alloc();
-      held.lock();
-      try {
-        slabs.push_back(slab);
-      } catch (...) {
-        munmap(slab, kSlab);
-        throw;
+    } else {
+      if (next == nullptr || static_cast<std::size_t>(end - next) < size) {
+        // A new slab (the lock kept: a mode change waits for every stripe's lock).
+        void* slab = map_slab();
+        if (!slab) throw std::bad_alloc();
+        try {
+          slabs.push_back(slab);
+        } catch (...) {
+          munmap(slab, kSlab);
+          throw;
+        }
+        new (slab) SlabHeader{0, static_cast<std::uint32_t>(slabs.size() - 1), id};
+        next = static_cast<char*>(slab) + kAlign;
+        end = static_cast<char*>(slab) + kSlab;
       }
-      new (slab) SlabHeader{0, static_cast<std::uint32_t>(slabs.size() - 1)};
-      next = static_cast<char*>(slab) + kAlign;
-      end = static_cast<char*>(slab) + kSlab;
+      block = next;
+      next += size;
     }
-    void* block = next;
-    next += size;
     ++header_of(block).live;
+    ++live;
     return block;
   }
 
-  // Unmaps a slab none of whose blocks is in use (the lock held).
+  // A block of this stripe's slabs goes back. The last block in use hands every slab back to the
+  // kernel.
+  void free_block(void* block, std::size_t bytes) noexcept {
+    const std::size_t c = class_of(bytes);
+    SlabHeader& h = header_of(block);
+    --h.live;
+    --live;
+    if (!draining) {
+      auto* f = static_cast<FreeBlock*>(block);
+      f->next = free[c];
+      free[c] = f;
+    }
+    QJULIA_POISON(block, (c + 1) * kAlign);
+    if (live == 0) {
+      release_all();
+    } else if (draining && h.live == 0) {
+      unmap(h);
+    }
+  }
+
+  // Unmaps a slab none of whose blocks is in use.
   void unmap(SlabHeader& h) noexcept {
     char* const slab = reinterpret_cast<char*>(&h);
     const std::uint32_t i = h.index;
@@ -144,47 +155,7 @@ struct Pool {
     munmap(slab, kSlab);
   }
 
-  void drain() noexcept {
-    std::lock_guard<SpinLock> held(lock);
-    if (!(state.load(std::memory_order_acquire) & 1) || slabs.empty()) return;
-    draining = true;
-    for (FreeBlock*& head : free) head = nullptr;  // their blocks stay free, and poisoned
-    next = end = nullptr;
-    for (std::size_t i = slabs.size(); i-- > 0;) {
-      SlabHeader& h = *static_cast<SlabHeader*>(slabs[i]);
-      if (h.live == 0) unmap(h);
-    }
-  }
-
-  void free_block(void* block, std::size_t bytes) noexcept {
-    if (!block) return;
-    // This block is in use, so the mode is the one it was made in.
-    const bool pooled = state.load(std::memory_order_acquire) & 1;
-    if (!pooled) ::operator delete(block);
-    release(block, bytes, pooled);
-  }
-
-  // One block fewer in use; `block` (when given) goes to its free list. The last block of the
-  // pool hands every slab back to the kernel.
-  void release(void* block, std::size_t bytes, bool pooled) noexcept {
-    if (!pooled) {
-      state.fetch_sub(2, std::memory_order_acq_rel);
-      return;
-    }
-    std::lock_guard<SpinLock> held(lock);
-    if (block) {
-      const std::size_t c = class_of(bytes);
-      SlabHeader& h = header_of(block);
-      --h.live;
-      if (!draining) {
-        auto* f = static_cast<FreeBlock*>(block);
-        f->next = free[c];
-        free[c] = f;
-      }
-      QJULIA_POISON(block, (c + 1) * kAlign);
-      if (draining && h.live == 0) unmap(h);
-    }
-    if (state.fetch_sub(2, std::memory_order_acq_rel) >> 1 != 1) return;
+  void release_all() noexcept {
     for (void* slab : slabs) {
       QJULIA_UNPOISON(slab, kSlab);
       munmap(slab, kSlab);
@@ -196,11 +167,109 @@ struct Pool {
     draining = false;
   }
 
+  void drain() noexcept {
+    if (slabs.empty()) return;
+    draining = true;
+    for (FreeBlock*& head : free) head = nullptr;  // their blocks stay free, and poisoned
+    next = end = nullptr;
+    for (std::size_t i = slabs.size(); i-- > 0;) {
+      SlabHeader& h = *static_cast<SlabHeader*>(slabs[i]);
+      if (h.live == 0) unmap(h);
+    }
+  }
+};
+
+// One pool for the process: the bricks of several grids (tests, the explorer's previews) share
+// it. Whether blocks come from the slabs or from malloc changes only when no block of either
+// kind is in use, so a block in use was made in the current mode.
+struct Pool {
+  std::atomic<bool> pooled{false};
+  std::atomic<std::int64_t> outside{0};  // blocks from malloc in use
+  std::atomic<std::uint32_t> turn{0};
+  Stripe stripes[kStripes];
+
+  Pool() {
+    for (std::uint32_t i = 0; i < kStripes; ++i) stripes[i].id = i;
+  }
+
+  Stripe& mine() {
+    thread_local const std::uint32_t s = turn.fetch_add(1, std::memory_order_relaxed) % kStripes;
+    return stripes[s];
+  }
+
+  void* allocate(std::size_t bytes) {
+    if (bytes == 0 || bytes > kPoolLargest) throw std::bad_alloc();
+    for (;;) {
+      if (pooled.load()) {
+        Stripe& s = mine();
+        std::lock_guard<SpinLock> held(s.lock);
+        if (pooled.load()) return s.allocate(bytes);  // the mode cannot change while held
+        continue;
+      }
+      // Counted before the mode is read again, which prefer() reads in the other order.
+      outside.fetch_add(1);
+      if (!pooled.load()) {
+        try {
+          return ::operator new(bytes);
+        } catch (...) {
+          outside.fetch_sub(1);
+          throw;
+        }
+      }
+      outside.fetch_sub(1);
+    }
+  }
+
+  void free_block(void* block, std::size_t bytes) noexcept {
+    if (!block) return;
+    // This block is in use, so the mode is the one it was made in, and its slab is mapped.
+    if (!pooled.load(std::memory_order_acquire)) {
+      ::operator delete(block);
+      outside.fetch_sub(1);
+      return;
+    }
+    Stripe& s = stripes[header_of(block).stripe];
+    std::lock_guard<SpinLock> held(s.lock);
+    s.free_block(block, bytes);
+  }
+
+  template <class F>
+  void with_every_stripe(F&& f) {
+    for (Stripe& s : stripes) s.lock.lock();
+    f();
+    for (Stripe& s : stripes) s.lock.unlock();
+  }
+
   bool prefer(bool use_pool) {
-    std::uint64_t s = state.load(std::memory_order_acquire);
-    while (s >> 1 == 0 && (s & 1) != static_cast<std::uint64_t>(use_pool))
-      if (state.compare_exchange_weak(s, use_pool ? 1 : 0, std::memory_order_acq_rel)) break;
-    return state.load(std::memory_order_acquire) & 1;
+    with_every_stripe([&] {
+      for (const Stripe& s : stripes)
+        if (s.live) return;
+      if (pooled.load() == use_pool || outside.load() != 0) return;
+      pooled.store(use_pool);
+      // A block from malloc being made since (allocate() counts it, then reads the mode): back.
+      if (use_pool && outside.load() != 0) pooled.store(false);
+    });
+    return pooled.load();
+  }
+
+  void drain() noexcept {
+    for (Stripe& s : stripes) {
+      std::lock_guard<SpinLock> held(s.lock);
+      s.drain();
+    }
+  }
+
+  PoolUsage usage() {
+    PoolUsage u;
+    with_every_stripe([&] {
+      u.pooled = pooled.load();
+      u.blocks = static_cast<std::size_t>(outside.load());
+      for (const Stripe& s : stripes) {
+        u.slabs += s.slabs.size();
+        u.blocks += s.live;
+      }
+    });
+    return u;
   }
 };
 
@@ -219,11 +288,6 @@ bool pool_prefer(bool use_pool) { return pool().prefer(use_pool); }
 
 void pool_drain() noexcept { pool().drain(); }
 
-PoolUsage pool_usage() {
-  Pool& p = pool();
-  std::lock_guard<SpinLock> held(p.lock);
-  const std::uint64_t s = p.state.load(std::memory_order_acquire);
-  return {static_cast<bool>(s & 1), p.slabs.size(), static_cast<std::size_t>(s >> 1)};
-}
+PoolUsage pool_usage() { return pool().usage(); }
 
 }  // namespace qjulia::detail

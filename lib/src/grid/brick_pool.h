@@ -2,19 +2,16 @@
 /// @file brick_pool.h
 /// The memory of the sampled bricks and of their values. Bricks and value arrays are many small
 /// blocks made and freed all through the sampling; from malloc they end up scattered over the
-/// heap among the extraction's own blocks, so that once the bricks go the heap is full of holes
-/// of a few KB and the mesh's arrays take fresh pages (which cost far more than writing them:
-/// the kernel clears them, and a virtual machine's host may have to back them). From the pool
-/// they come from slabs of one huge page each, mapped on their own; each size's freed blocks are
-/// reused, and when the last block is freed every slab is unmapped at once. The mesh's arrays,
-/// made next, then get those pages from the kernel: pages in use a moment before, which it
-/// clears at the speed of memory, where pages long free cost about 2 ms a MB on the project's
-/// virtual machine (newton-cubic at 512 on one thread: 7.19 s instead of 7.53 with the slabs
-/// from malloc, classic-julia 1.10 s instead of 1.20).
-///
-/// The pool serves one-thread runs (pool_prefer()); otherwise blocks come from malloc: on two
-/// threads the one lock made the sampling slower, and the bricks kept until the last one goes
-/// raised newton-cubic's peak at 1024 above its bound.
+/// heap among the extraction's own blocks (and, on several threads, in each thread's arena), so
+/// that once the bricks go the heap is full of holes of a few KB that the mesh's arrays cannot
+/// use: those take fresh pages, which cost far more than writing them (the kernel clears them,
+/// about 2 ms a MB on the project's virtual machine for pages long free), and handing the holes
+/// back (malloc_trim) takes one madvise each. From the pool they come from slabs of one huge
+/// page each, mapped on their own; each thread takes blocks from its own stripe of slabs under
+/// its own lock, each size's freed blocks are reused, and during the extraction (pool_drain())
+/// each slab is unmapped as soon as its last brick goes. The mesh's arrays, made meanwhile, get
+/// those pages from the kernel: pages in use a moment before, which it clears at the speed of
+/// memory.
 #include <cstddef>
 
 namespace qjulia::detail {

@@ -12,7 +12,6 @@
 #include <mutex>
 
 #include "base/distribution.h"
-#include "base/threads.h"
 #include "qjulia/base/error.h"
 
 namespace qjulia::detail {
@@ -1501,8 +1500,8 @@ struct BrickSampler::Sampling {
 };
 
 BrickList BrickSampler::run() {
-  // One thread: the bricks from the pool (see brick_pool.h), unless another grid's are in use.
-  pool_prefer(threads_that_may_run() == 1);
+  // The bricks from the pool (see brick_pool.h), unless another grid's from malloc are in use.
+  pool_prefer(true);
   Sampling s(solid_, geo_, opts_, interior_);
   if (s.dense_path())
     s.dense();

@@ -15,7 +15,7 @@ namespace {
 // itself, bytes per crossing cell of the sparse run written as PLY (sampling, extraction and
 // the written mesh, which peak at different times), the faces and bricks per crossing cell,
 // and what the other stages and formats add.
-constexpr double kProcess = 40.0 * (1 << 20);
+constexpr double kProcess = 28.0 * (1 << 20);
 constexpr double kPerCell = 80;
 constexpr double kFacesPerCell = 2.1;
 constexpr double kBrickBytes = 2600;       // a brick with its values, sampling and extraction
