@@ -29,9 +29,9 @@ constexpr std::size_t kPoolLargest = 4096;
 /// (a block goes back where it came from); returns whether the pool is in use after the call.
 bool pool_prefer(bool use_pool);
 
-/// From now until no block of the pool is in use, freed blocks are not reused and each slab is
-/// unmapped as soon as its last block is freed: for the extraction, which frees the bricks
-/// brick by brick and makes none.
+/// From now on, in each thread's stripe of slabs until no block of that stripe is in use, freed
+/// blocks are not reused and each slab is unmapped as soon as its last block is freed: for the
+/// extraction, which frees the bricks brick by brick and makes none.
 void pool_drain() noexcept;
 
 /// What the pool holds: whether it serves blocks, its slabs, the blocks in use (either kind).
