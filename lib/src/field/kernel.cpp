@@ -45,6 +45,40 @@ constexpr std::size_t kFinished = 1024;
 constexpr std::uint64_t kRetireEvery = 2;
 // Storage slots: one per register of the program.
 constexpr int kSlots = kRegisters;
+
+// The AVX2 path's lane tables, by a 4-bit lane mask m: the 32-bit lane indices of
+// _mm256_permutevar8x32_ps that move the first popcount(m) doubles to the lanes of m, in order
+// (an expanding load), and those that move the lanes of m to the front, in order (a compressing
+// store; Highway's own table is a local array that GCC copies to the stack at every call); the
+// lanes of m as a vector mask; and the first n lanes (n = 0..4).
+struct Lanes4Tables {
+  alignas(32) std::int32_t expand[16][8];
+  alignas(32) std::int32_t compress[16][8];
+  alignas(32) std::int64_t lanes[16][4];
+  alignas(32) std::int64_t first[5][4];
+};
+constexpr Lanes4Tables make_lanes4_tables() {
+  Lanes4Tables t{};
+  for (int m = 0; m < 16; ++m) {
+    int rank = 0;
+    for (int j = 0; j < 4; ++j) {
+      const bool in = (m >> j) & 1;
+      t.expand[m][2 * j] = 2 * (in ? rank : 0);
+      t.expand[m][2 * j + 1] = 2 * (in ? rank : 0) + 1;
+      t.lanes[m][j] = in ? -1 : 0;
+      if (in) {
+        t.compress[m][2 * rank] = 2 * j;
+        t.compress[m][2 * rank + 1] = 2 * j + 1;
+      }
+      rank += in ? 1 : 0;
+    }
+  }
+  for (int n = 0; n <= 4; ++n)
+    for (int j = 0; j < 4; ++j) t.first[n][j] = j < n ? -1 : 0;
+  return t;
+}
+// (Not const: GCC copies a constant table to the stack before indexing it at run time.)
+alignas(32) static Lanes4Tables kLanes4 = make_lanes4_tables();
 }  // namespace qjulia::detail
 #endif
 
@@ -422,6 +456,11 @@ HWY_INLINE std::size_t compress_store(V v, M m, double* p) {
   const D d;
 #if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
   hn::StoreU(V{_mm512_maskz_compress_pd(m.raw, v.raw)}, d, p);
+#elif HWY_TARGET == HWY_AVX2
+  const unsigned bits = static_cast<unsigned>(_mm256_movemask_pd(m.raw));
+  const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kLanes4.compress[bits]));
+  _mm256_storeu_pd(p, _mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(v.raw), perm)));
+  return static_cast<std::size_t>(__builtin_popcount(bits));
 #else
   hn::StoreU(hn::Compress(v, m), d, p);
 #endif
@@ -731,9 +770,9 @@ class Machine {
       const V k = hn::Sub(g, hn::Load(d, start_ + o));
       const M open = hn::Not(hn::MaskFromVec(hn::Load(d, frozen_ + o)));
       const M now = hn::And(open, hn::Or(exit, hn::Eq(k, iters)));
-      if (hn::AllFalse(d, now)) continue;
       const V code =
           s_->escape ? exit_code<true>(exit, k, metric) : exit_code<false>(exit, k, metric);
+      if (hn::AllFalse(d, now)) continue;
       hn::BlendedStore(code, now, d, cap_code_ + o);
       hn::BlendedStore(metric, now, d, cap_a_ + o);
       hn::BlendedStore(second(code, hn::Load(d, prev_ + o), ext), now, d, cap_b_ + o);
@@ -753,10 +792,8 @@ class Machine {
            (op.add != 2 || (op.add_reg == s_->c_register && s_->c_register > 0));
   }
 
-  // The orbits of a single-operation program, a group of kGroup vectors at a time with h, the
-  // previous metric, the step and the masks in registers; a group returns to memory (and its
-  // decided lanes are retired and refilled) when a quarter of its lanes have decided, or
-  // after kRun steps.
+  // The orbits of a single-operation program, a few vectors at a time with h, the metrics, the
+  // step and the masks in registers (on AVX-512 and AVX2, below).
   void run_single_op(const double* x, const double* y, const double* z, std::size_t n) {
     const int add = s_->kops[0].add;
     if (s_->escape) {
@@ -905,89 +942,163 @@ class Machine {
     }
     live_ = 0;
   }
+#elif HWY_TARGET == HWY_AVX2
+  // AVX2: the AVX-512 path above with the masks as vectors (every bit of a lane set) and the
+  // expanding loads done by lane tables (a masked load of the next points, then a permutation):
+  // the state of kGroup vectors stays in registers, the steps run without a branch on the data,
+  // a decided lane freezes (masked updates, its iterate zeroed) until its vector refills.
+  template <int kAdd, bool kEscape>
+  HWY_NOINLINE void run_single_op(const double* x, const double* y, const double* z,
+                                  std::size_t n) {
+    constexpr std::size_t kGroup = kAdd == 2 ? 2 : 3;  // 16 registers: c of each lane needs some
+    constexpr int kSteps = 4;                          // steps between refills
+    constexpr int kRefillAt = 2;                       // waiting lanes that make a vector refill
+    const D d;
+    const KernelOp& op = s_->kops[0];
+    const Q lit = broadcast(op.add_lit);
+    const V r2 = hn::Set(d, s_->r2), iters = hn::Set(d, s_->iterations), one = hn::Set(d, 1.0);
+    const V zero = hn::Zero(d);
+    Q h[kGroup], c[kGroup];
+    V k[kGroup], a[kGroup], prev[kGroup], ext[kGroup];
+    __m256d live[kGroup], pending[kGroup], left[kGroup];
+    HWY_ALIGN static constexpr double kIota[4] = {0, 1, 2, 3};
+    std::size_t next = 0;  // the next point of the slice
+    auto lanes_of = [](unsigned m) __attribute__((always_inline)) {
+      return _mm256_load_pd(reinterpret_cast<const double*>(kLanes4.lanes[m]));
+    };
+    // Loads the next points into the lanes of `want`, as the AVX-512 path's load().
+    auto load = [&](auto group, unsigned want) __attribute__((always_inline))->__m256d {
+      constexpr std::size_t g = decltype(group)::value;
+      __m256d filled = _mm256_setzero_pd();
+      while (want != 0 && next < n) {
+        unsigned m = want;
+        while (static_cast<std::size_t>(__builtin_popcount(m)) > n - next)
+          m &= ~(1u << (31 - __builtin_clz(m)));  // keep the lowest lanes
+        const unsigned count = static_cast<unsigned>(__builtin_popcount(m));
+        const __m256i first =
+            _mm256_load_si256(reinterpret_cast<const __m256i*>(kLanes4.first[count]));
+        const __m256i perm = _mm256_load_si256(reinterpret_cast<const __m256i*>(kLanes4.expand[m]));
+        auto expand = [&](__m256d v) __attribute__((always_inline)) {
+          return V{_mm256_castps_pd(_mm256_permutevar8x32_ps(_mm256_castpd_ps(v), perm))};
+        };
+        const V vx = expand(_mm256_maskload_pd(x + next, first));
+        const V vy = expand(_mm256_maskload_pd(y + next, first));
+        const V vz = expand(_mm256_maskload_pd(z + next, first));
+        const V id = expand(hn::Add(hn::Load(d, kIota), hn::Set(d, double(next))).raw);
+        next += count;
+        const Q q = slice_point(vx, vy, vz, broadcast(s_->origin), broadcast(s_->dir[0]),
+                                broadcast(s_->dir[1]), broadcast(s_->dir[2]));
+        const Q h0 = s_->mandelbrot ? broadcast(s_->start) : q;
+        __m256d ok = lanes_of(m);
+        unsigned okbits = m;
+        V p = hn::Set(d, std::numeric_limits<double>::infinity());  // cut-off: no step before
+        if (kEscape) {
+          p = norm2(h0);
+          const __m256d out = _mm256_and_pd(ok, _mm256_cmp_pd(p.raw, r2.raw, _CMP_GT_OQ));
+          const unsigned outbits = static_cast<unsigned>(_mm256_movemask_pd(out));
+          if (outbits != 0) {
+            finished(M{out}, zero, p, p, id);
+            ok = _mm256_andnot_pd(out, ok);
+            okbits &= ~outbits;
+          }
+        }
+        h[g] = {V{_mm256_blendv_pd(h[g].w.raw, h0.w.raw, ok)},
+                V{_mm256_blendv_pd(h[g].x.raw, h0.x.raw, ok)},
+                V{_mm256_blendv_pd(h[g].y.raw, h0.y.raw, ok)},
+                V{_mm256_blendv_pd(h[g].z.raw, h0.z.raw, ok)}};
+        if (kAdd == 2)
+          c[g] = {V{_mm256_blendv_pd(c[g].w.raw, q.w.raw, ok)},
+                  V{_mm256_blendv_pd(c[g].x.raw, q.x.raw, ok)},
+                  V{_mm256_blendv_pd(c[g].y.raw, q.y.raw, ok)},
+                  V{_mm256_blendv_pd(c[g].z.raw, q.z.raw, ok)}};
+        a[g] = V{_mm256_blendv_pd(a[g].raw, p.raw, ok)};
+        ext[g] = V{_mm256_blendv_pd(ext[g].raw, p.raw, ok)};
+        k[g] = V{_mm256_andnot_pd(ok, k[g].raw)};
+        _mm256_maskstore_pd(idx_ + 4 * g, _mm256_castpd_si256(ok), id.raw);
+        filled = _mm256_or_pd(filled, ok);
+        want &= ~okbits;
+      }
+      return filled;
+    };
+    auto each = [&](auto&& f) __attribute__((always_inline)) {
+      each_group(std::make_index_sequence<kGroup>{}, f);
+    };
+    each([&](auto group) __attribute__((always_inline)) {
+      constexpr std::size_t g = decltype(group)::value;
+      h[g] = c[g] = {zero, zero, zero, zero};
+      k[g] = a[g] = prev[g] = ext[g] = zero;
+      pending[g] = left[g] = _mm256_setzero_pd();
+      live[g] = load(group, 0xf);
+    });
+    for (;;) {
+      for (int step = 0; step < kSteps; ++step) {
+        each([&](auto group) __attribute__((always_inline)) {
+          constexpr std::size_t g = decltype(group)::value;
+          const __m256d run = live[g];
+          const Q& kq = kAdd == 2 ? c[g] : lit;
+          const Q& hg = h[g];
+          const V t = hn::Add(hg.w, hg.w);
+          V w = kAdd == 0 ? hn::Mul(hg.w, hg.w) : hn::MulAdd(hg.w, hg.w, kq.w);
+          w = hn::NegMulAdd(hg.z, hg.z, hn::NegMulAdd(hg.y, hg.y, hn::NegMulAdd(hg.x, hg.x, w)));
+          Q q;
+          // Lanes outside `run` (decided, or idle) compute on from 0.
+          auto keep = [&](V v) __attribute__((always_inline)) {
+            return V{_mm256_and_pd(v.raw, run)};
+          };
+          q.w = keep(w);
+          if (kAdd == 1 || kAdd == 2) {
+            q.x = keep(hn::MulAdd(t, hg.x, kq.x));
+            q.y = keep(hn::MulAdd(t, hg.y, kq.y));
+            q.z = keep(hn::MulAdd(t, hg.z, kq.z));
+          } else {
+            q.x = keep(hn::Mul(t, hg.x));
+            q.y = keep(hn::Mul(t, hg.y));
+            q.z = keep(hn::Mul(t, hg.z));
+          }
+          M exit;
+          const V metric = step_metric<kEscape>(q, hg, r2, exit);
+          k[g] = hn::Add(k[g], V{_mm256_and_pd(one.raw, run)});
+          ext[g] = V{_mm256_blendv_pd(
+              ext[g].raw, (kEscape ? hn::Max(ext[g], metric) : hn::Min(ext[g], metric)).raw, run)};
+          prev[g] = V{_mm256_blendv_pd(prev[g].raw, a[g].raw, run)};
+          a[g] = V{_mm256_blendv_pd(a[g].raw, metric.raw, run)};
+          const __m256d now = _mm256_and_pd(
+              run, _mm256_or_pd(exit.raw, _mm256_cmp_pd(k[g].raw, iters.raw, _CMP_EQ_OQ)));
+          left[g] = _mm256_or_pd(left[g], _mm256_and_pd(now, exit.raw));
+          live[g] = _mm256_andnot_pd(now, run);
+          pending[g] = _mm256_or_pd(pending[g], now);
+          h[g] = q;
+        });
+      }
+      // Decided lanes to the finished orbits; refilled once enough of a vector waits.
+      bool any = false;
+      each([&](auto group) __attribute__((always_inline)) {
+        constexpr std::size_t g = decltype(group)::value;
+        const unsigned livebits = static_cast<unsigned>(_mm256_movemask_pd(live[g]));
+        const unsigned waiting = ~livebits & 0xfu;
+        if (_mm256_movemask_pd(pending[g]) != 0 &&
+            (__builtin_popcount(waiting) >= kRefillAt || livebits == 0)) {
+          const V code = exit_code<kEscape>(M{left[g]}, k[g], a[g]);
+          finished(M{pending[g]}, code, a[g], second(code, prev[g], ext[g]),
+                   hn::Load(d, idx_ + 4 * g));
+          pending[g] = left[g] = _mm256_setzero_pd();
+          live[g] = _mm256_or_pd(live[g], load(group, waiting));
+        }
+        any = any || _mm256_movemask_pd(live[g]) != 0;
+      });
+      if (!any) break;
+    }
+    live_ = 0;
+  }
 #else
+  // Targets without a loop of their own (never dispatched: the kernel runs on AVX2 and AVX-512
+  // only) run the program through the sweeps.
   template <int kAdd, bool kEscape>
   HWY_NOINLINE void run_single_op(const double* x, const double* y, const double* z,
                                   std::size_t n) {
     queue(x, y, z, n);
     start();
-    constexpr std::size_t kGroup = 4;
-    constexpr int kRun = 64;
-    const D d;
-    const std::size_t nl = hn::Lanes(d);
-    const std::size_t width = kGroup * nl;
-    const KernelOp& op = s_->kops[0];
-    const Q lit = broadcast(op.add_lit);
-    const Slot c = slot_[op.add_reg];
-    const V r2 = hn::Set(d, s_->r2), iters = hn::Set(d, s_->iterations), one = hn::Set(d, 1.0);
-    const V zero = hn::Zero(d);
-    // The step of each lane (start_ holds it here, not a sweep number).
-    std::fill(start_, start_ + lanes_, 0.0);
-    const Slot h = slot_[0];
-    while (live_ > 0) {
-      for (std::size_t base = 0; base < lanes_; base += width) {
-        Q hv[kGroup];
-        V prev[kGroup], k[kGroup], ext[kGroup];
-        M frozen[kGroup], pending[kGroup];
-        std::size_t open = 0;
-        for (std::size_t g = 0; g < kGroup; ++g) {
-          const std::size_t o = base + g * nl;
-          hv[g] = h.load(o);
-          prev[g] = hn::Load(d, prev_ + o);
-          ext[g] = hn::Load(d, ext_ + o);
-          k[g] = hn::Load(d, start_ + o);
-          frozen[g] = hn::MaskFromVec(hn::Load(d, frozen_ + o));
-          pending[g] = hn::MaskFromVec(hn::Load(d, pending_ + o));
-          open += nl - hn::CountTrue(d, frozen[g]);
-        }
-        if (open == 0) continue;
-        std::size_t decided = 0;
-        for (int step = 0; step < kRun && 4 * decided < width && decided < open; ++step) {
-#pragma GCC unroll 4
-          for (std::size_t g = 0; g < kGroup; ++g) {
-            const std::size_t o = base + g * nl;
-            V metric;
-            M exit;
-            Q q = single_op_step<kAdd, kEscape>(hv[g], kAdd == 2 ? c.load(o) : lit, lit, r2, metric,
-                                                exit);
-            k[g] = hn::Add(k[g], one);
-            ext[g] = kEscape ? hn::Max(ext[g], metric) : hn::Min(ext[g], metric);
-            const M now = hn::AndNot(frozen[g], hn::Or(exit, hn::Eq(k[g], iters)));
-            if (HWY_UNLIKELY(!hn::AllFalse(d, now))) {
-              const V code = exit_code<kEscape>(exit, k[g], metric);
-              hn::BlendedStore(code, now, d, cap_code_ + o);
-              hn::BlendedStore(metric, now, d, cap_a_ + o);
-              hn::BlendedStore(second(code, prev[g], ext[g]), now, d, cap_b_ + o);
-              frozen[g] = hn::Or(frozen[g], now);
-              pending[g] = hn::Or(pending[g], now);
-              decided += hn::CountTrue(d, now);
-              // A decided lane computes on from 0 until it is refilled (no overflow or
-              // subnormal values on the way).
-              q = {hn::IfThenElse(now, zero, q.w), hn::IfThenElse(now, zero, q.x),
-                   hn::IfThenElse(now, zero, q.y), hn::IfThenElse(now, zero, q.z)};
-            }
-            hv[g] = q;
-            prev[g] = metric;
-          }
-        }
-        for (std::size_t g = 0; g < kGroup; ++g) {
-          const std::size_t o = base + g * nl;
-          h.store(o, hv[g]);
-          hn::Store(prev[g], d, prev_ + o);
-          hn::Store(ext[g], d, ext_ + o);
-          hn::Store(k[g], d, start_ + o);
-          hn::Store(hn::VecFromMask(d, frozen[g]), d, frozen_ + o);
-          hn::Store(hn::VecFromMask(d, pending[g]), d, pending_ + o);
-          if (hn::AllFalse(d, pending[g])) continue;
-          finished(pending[g], hn::Load(d, cap_code_ + o), hn::Load(d, cap_a_ + o),
-                   hn::Load(d, cap_b_ + o), hn::Load(d, idx_ + o));
-          refill(o, pending[g]);
-          // Refilled lanes start at step 0.
-          hn::Store(hn::IfThenElseZero(hn::Not(pending[g]), hn::Load(d, start_ + o)), d,
-                    start_ + o);
-        }
-      }
-    }
+    while (live_ > 0) sweep();
   }
 #endif
 
