@@ -167,6 +167,11 @@ template <std::size_t... I, class F>
 HWY_INLINE void each_group(std::index_sequence<I...>, F&& f) {
   (f(std::integral_constant<std::size_t, I>()), ...);
 }
+// each_group() over the groups 0 .. N-1.
+template <std::size_t N, class F>
+HWY_INLINE void for_groups(F&& f) {
+  each_group(std::make_index_sequence<N>{}, f);
+}
 
 // One step of a single-operation map: h^2, plus the literal (kAdd 1), c (2) or the literal's
 // real part (3); the metric and exit as step_metric().
@@ -891,10 +896,7 @@ class Machine {
       }
       return filled;
     };
-    auto each = [&](auto&& f) __attribute__((always_inline)) {
-      each_group(std::make_index_sequence<kGroup>{}, f);
-    };
-    each([&](auto group) __attribute__((always_inline)) {
+    for_groups<kGroup>([&](auto group) __attribute__((always_inline)) {
       constexpr std::size_t g = decltype(group)::value;
       h[g] = c[g] = {zero, zero, zero, zero};
       k[g] = a[g] = prev[g] = ext[g] = zero;
@@ -904,7 +906,7 @@ class Machine {
     for (;;) {
       // kSteps steps of every vector, without a branch on the data.
       for (int step = 0; step < kSteps; ++step) {
-        each([&](auto group) __attribute__((always_inline)) {
+        for_groups<kGroup>([&](auto group) __attribute__((always_inline)) {
           constexpr std::size_t g = decltype(group)::value;
           V metric;
           M exit;
@@ -925,7 +927,7 @@ class Machine {
       }
       // Decided lanes to the finished orbits; refilled once enough of a vector waits.
       bool any = false;
-      each([&](auto group) __attribute__((always_inline)) {
+      for_groups<kGroup>([&](auto group) __attribute__((always_inline)) {
         constexpr std::size_t g = decltype(group)::value;
         const __mmask8 waiting = static_cast<__mmask8>(~live[g]);
         if (pending[g] && (__builtin_popcount(waiting) >= kRefillAt || live[g] == 0)) {
@@ -1020,19 +1022,16 @@ class Machine {
       }
       return filled;
     };
-    auto each = [&](auto&& f) __attribute__((always_inline)) {
-      each_group(std::make_index_sequence<kGroup>{}, f);
-    };
-    each([&](auto group) __attribute__((always_inline)) {
+    for_groups<kGroup>([&](auto group) __attribute__((always_inline)) {
       constexpr std::size_t g = decltype(group)::value;
+      pending[g] = left[g] = _mm256_setzero_pd();
       h[g] = c[g] = {zero, zero, zero, zero};
       k[g] = a[g] = prev[g] = ext[g] = zero;
-      pending[g] = left[g] = _mm256_setzero_pd();
       live[g] = load(group, 0xf);
     });
     for (;;) {
       for (int step = 0; step < kSteps; ++step) {
-        each([&](auto group) __attribute__((always_inline)) {
+        for_groups<kGroup>([&](auto group) __attribute__((always_inline)) {
           constexpr std::size_t g = decltype(group)::value;
           const __m256d run = live[g];
           const Q& kq = kAdd == 2 ? c[g] : lit;
@@ -1072,7 +1071,7 @@ class Machine {
       }
       // Decided lanes to the finished orbits; refilled once enough of a vector waits.
       bool any = false;
-      each([&](auto group) __attribute__((always_inline)) {
+      for_groups<kGroup>([&](auto group) __attribute__((always_inline)) {
         constexpr std::size_t g = decltype(group)::value;
         const unsigned livebits = static_cast<unsigned>(_mm256_movemask_pd(live[g]));
         const unsigned waiting = ~livebits & 0xfu;
