@@ -775,9 +775,9 @@ class Machine {
       const V k = hn::Sub(g, hn::Load(d, start_ + o));
       const M open = hn::Not(hn::MaskFromVec(hn::Load(d, frozen_ + o)));
       const M now = hn::And(open, hn::Or(exit, hn::Eq(k, iters)));
+      if (hn::AllFalse(d, now)) continue;
       const V code =
           s_->escape ? exit_code<true>(exit, k, metric) : exit_code<false>(exit, k, metric);
-      if (hn::AllFalse(d, now)) continue;
       hn::BlendedStore(code, now, d, cap_code_ + o);
       hn::BlendedStore(metric, now, d, cap_a_ + o);
       hn::BlendedStore(second(code, hn::Load(d, prev_ + o), ext), now, d, cap_b_ + o);
