@@ -1034,28 +1034,13 @@ class Machine {
         for_groups<kGroup>([&](auto group) __attribute__((always_inline)) {
           constexpr std::size_t g = decltype(group)::value;
           const __m256d run = live[g];
-          const Q& kq = kAdd == 2 ? c[g] : lit;
-          const Q& hg = h[g];
-          const V t = hn::Add(hg.w, hg.w);
-          V w = kAdd == 0 ? hn::Mul(hg.w, hg.w) : hn::MulAdd(hg.w, hg.w, kq.w);
-          w = hn::NegMulAdd(hg.z, hg.z, hn::NegMulAdd(hg.y, hg.y, hn::NegMulAdd(hg.x, hg.x, w)));
-          Q q;
-          // Lanes outside `run` (decided, or idle) compute on from 0.
-          auto keep = [&](V v) __attribute__((always_inline)) {
-            return V{_mm256_and_pd(v.raw, run)};
-          };
-          q.w = keep(w);
-          if (kAdd == 1 || kAdd == 2) {
-            q.x = keep(hn::MulAdd(t, hg.x, kq.x));
-            q.y = keep(hn::MulAdd(t, hg.y, kq.y));
-            q.z = keep(hn::MulAdd(t, hg.z, kq.z));
-          } else {
-            q.x = keep(hn::Mul(t, hg.x));
-            q.y = keep(hn::Mul(t, hg.y));
-            q.z = keep(hn::Mul(t, hg.z));
-          }
+          V metric;
           M exit;
-          const V metric = step_metric<kEscape>(q, hg, r2, exit);
+          Q q = single_op_step<kAdd, kEscape>(h[g], c[g], lit, r2, metric, exit);
+          // Lanes outside `run` (decided, or idle) compute on from 0; their metric and exit are
+          // not used.
+          q = {V{_mm256_and_pd(q.w.raw, run)}, V{_mm256_and_pd(q.x.raw, run)},
+               V{_mm256_and_pd(q.y.raw, run)}, V{_mm256_and_pd(q.z.raw, run)}};
           k[g] = hn::Add(k[g], V{_mm256_and_pd(one.raw, run)});
           ext[g] = V{_mm256_blendv_pd(
               ext[g].raw, (kEscape ? hn::Max(ext[g], metric) : hn::Min(ext[g], metric)).raw, run)};
