@@ -1,7 +1,7 @@
 // The brick pool (grid/brick_pool.h): blocks from slabs, reused, every slab unmapped with the
-// last block, or with its own last block while draining; each thread on slabs of its own; the
-// mode changes only when no block is in use; sampling on one thread and on two uses it and gives
-// the same bricks. Each test runs in its own process (the pool is the process's).
+// last block, or with its own last block while draining; each thread on slabs of its own;
+// sampling on one thread and on two uses it and gives the same bricks. Each test runs in its own
+// process (the pool is the process's).
 #include "grid/brick_pool.h"
 
 #include <gtest/gtest.h>
@@ -25,11 +25,9 @@ namespace {
 
 using detail::pool_allocate;
 using detail::pool_free;
-using detail::pool_prefer;
 using detail::pool_usage;
 
 TEST(BrickPool, ServesFromSlabsReusesFreedBlocksAndHandsEverySlabBackWithTheLast) {
-  ASSERT_TRUE(pool_prefer(true));
   const std::size_t sizes[] = {4, 64, 65, 700, 2916, detail::kPoolLargest};
   std::vector<std::pair<void*, std::size_t>> blocks;
   for (int i = 0; i < 6000; ++i) {
@@ -64,29 +62,11 @@ TEST(BrickPool, ServesFromSlabsReusesFreedBlocksAndHandsEverySlabBackWithTheLast
     EXPECT_EQ(mincore(page_of(b), 4096, &resident), -1);
     EXPECT_EQ(errno, ENOMEM) << "the slab of " << b << " is still mapped";
   }
-  EXPECT_TRUE(pool_usage().pooled);
   EXPECT_THROW(pool_allocate(detail::kPoolLargest + 1), std::bad_alloc);
   EXPECT_EQ(pool_usage().blocks, 0u);
 }
 
-TEST(BrickPool, ChangesModeOnlyWhenNoBlockIsInUse) {
-  ASSERT_FALSE(pool_prefer(false));
-  void* a = pool_allocate(100);     // from malloc
-  EXPECT_FALSE(pool_prefer(true));  // a block is in use
-  EXPECT_EQ(pool_usage().slabs, 0u);
-  EXPECT_EQ(pool_usage().blocks, 1u);
-  pool_free(a, 100);
-  EXPECT_TRUE(pool_prefer(true));
-  void* b = pool_allocate(100);  // from a slab
-  EXPECT_EQ(pool_usage().slabs, 1u);
-  EXPECT_TRUE(pool_prefer(false));  // stays: a block is in use
-  pool_free(b, 100);
-  EXPECT_EQ(pool_usage().slabs, 0u);
-  EXPECT_FALSE(pool_prefer(false));
-}
-
 TEST(BrickPool, ThreadsGetBlocksThatNeverOverlap) {
-  ASSERT_TRUE(pool_prefer(true));
   std::vector<std::thread> threads;
   std::vector<int> bad(4, 0);
   for (int t = 0; t < 4; ++t)
@@ -132,7 +112,6 @@ std::vector<float> contents(const detail::BrickList& bricks) {
 }
 
 TEST(BrickPool, DrainingUnmapsEachSlabWithItsLastBlockAndReusesNoFreedBlock) {
-  ASSERT_TRUE(pool_prefer(true));
   // Blocks of 4 KB: 511 to a slab of 2 MiB (less its header); three slabs' worth.
   std::vector<void*> blocks;
   for (int i = 0; i < 1400; ++i) blocks.push_back(pool_allocate(detail::kPoolLargest));
@@ -176,7 +155,6 @@ TEST(BrickPool, DrainingUnmapsEachSlabWithItsLastBlockAndReusesNoFreedBlock) {
 }
 
 TEST(BrickPool, EachThreadTakesBlocksFromSlabsOfItsOwn) {
-  ASSERT_TRUE(pool_prefer(true));
   std::vector<void*> mine(100), theirs(100);
   for (void*& b : mine) b = pool_allocate(640);
   std::thread other([&] {
@@ -202,7 +180,6 @@ TEST(BrickPool, OneAndTwoThreadsSampleIntoThePoolAndGetTheSameBricks) {
     tbb::global_control single(tbb::global_control::max_allowed_parallelism, 1);
     const SampledGrid g = sample(p);
     const detail::PoolUsage u = pool_usage();
-    EXPECT_TRUE(u.pooled);
     EXPECT_GT(u.slabs, 0u);
     EXPECT_GE(u.blocks, g.impl().bricks.size());
     one = contents(g.impl().bricks);
@@ -212,7 +189,6 @@ TEST(BrickPool, OneAndTwoThreadsSampleIntoThePoolAndGetTheSameBricks) {
   {
     tbb::global_control pair(tbb::global_control::max_allowed_parallelism, 2);
     const SampledGrid g = sample(p);
-    EXPECT_TRUE(pool_usage().pooled);
     EXPECT_GT(pool_usage().slabs, 0u);
     EXPECT_GE(pool_usage().blocks, g.impl().bricks.size());
     two = contents(g.impl().bricks);

@@ -102,7 +102,7 @@ struct alignas(64) Stripe {
       free[c] = free[c]->next;
     } else {
       if (next == nullptr || static_cast<std::size_t>(end - next) < size) {
-        // A new slab (the lock kept: a mode change waits for every stripe's lock).
+        // A new slab.
         void* slab = map_slab();
         if (!slab) throw std::bad_alloc();
         try {
@@ -180,11 +180,8 @@ struct alignas(64) Stripe {
 };
 
 // One pool for the process: the bricks of several grids (tests, the explorer's previews) share
-// it. Whether blocks come from the slabs or from malloc changes only when no block of either
-// kind is in use, so a block in use was made in the current mode.
+// it.
 struct Pool {
-  std::atomic<bool> pooled{false};
-  std::atomic<std::int64_t> outside{0};  // blocks from malloc in use
   std::atomic<std::uint32_t> turn{0};
   Stripe stripes[kStripes];
 
@@ -199,35 +196,14 @@ struct Pool {
 
   void* allocate(std::size_t bytes) {
     if (bytes == 0 || bytes > kPoolLargest) throw std::bad_alloc();
-    for (;;) {
-      if (pooled.load()) {
-        Stripe& s = mine();
-        std::lock_guard<SpinLock> held(s.lock);
-        if (pooled.load()) return s.allocate(bytes);  // the mode cannot change while held
-        continue;
-      }
-      // Counted before the mode is read again, which prefer() reads in the other order.
-      outside.fetch_add(1);
-      if (!pooled.load()) {
-        try {
-          return ::operator new(bytes);
-        } catch (...) {
-          outside.fetch_sub(1);
-          throw;
-        }
-      }
-      outside.fetch_sub(1);
-    }
+    Stripe& s = mine();
+    std::lock_guard<SpinLock> held(s.lock);
+    return s.allocate(bytes);
   }
 
   void free_block(void* block, std::size_t bytes) noexcept {
     if (!block) return;
-    // This block is in use, so the mode is the one it was made in, and its slab is mapped.
-    if (!pooled.load(std::memory_order_acquire)) {
-      ::operator delete(block);
-      outside.fetch_sub(1);
-      return;
-    }
+    // This block is in use, so its slab is mapped.
     Stripe& s = stripes[header_of(block).stripe];
     std::lock_guard<SpinLock> held(s.lock);
     s.free_block(block, bytes);
@@ -240,18 +216,6 @@ struct Pool {
     for (Stripe& s : stripes) s.lock.unlock();
   }
 
-  bool prefer(bool use_pool) {
-    with_every_stripe([&] {
-      for (const Stripe& s : stripes)
-        if (s.live) return;
-      if (pooled.load() == use_pool || outside.load() != 0) return;
-      pooled.store(use_pool);
-      // A block from malloc being made since (allocate() counts it, then reads the mode): back.
-      if (use_pool && outside.load() != 0) pooled.store(false);
-    });
-    return pooled.load();
-  }
-
   void drain() noexcept {
     for (Stripe& s : stripes) {
       std::lock_guard<SpinLock> held(s.lock);
@@ -262,8 +226,6 @@ struct Pool {
   PoolUsage usage() {
     PoolUsage u;
     with_every_stripe([&] {
-      u.pooled = pooled.load();
-      u.blocks = static_cast<std::size_t>(outside.load());
       for (const Stripe& s : stripes) {
         u.slabs += s.slabs.size();
         u.blocks += s.live;
@@ -283,8 +245,6 @@ Pool& pool() {
 void* pool_allocate(std::size_t bytes) { return pool().allocate(bytes); }
 
 void pool_free(void* block, std::size_t bytes) noexcept { pool().free_block(block, bytes); }
-
-bool pool_prefer(bool use_pool) { return pool().prefer(use_pool); }
 
 void pool_drain() noexcept { pool().drain(); }
 

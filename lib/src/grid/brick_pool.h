@@ -16,8 +16,7 @@
 
 namespace qjulia::detail {
 
-/// A block of at least `bytes` (at most kPoolLargest), aligned to 64 bytes in the pool and as
-/// `operator new` aligns otherwise. Thread-safe.
+/// A block of at least `bytes` (at most kPoolLargest), aligned to 64 bytes. Thread-safe.
 void* pool_allocate(std::size_t bytes);
 /// Frees a block from pool_allocate() with the same `bytes`. Thread-safe.
 void pool_free(void* block, std::size_t bytes) noexcept;
@@ -25,18 +24,13 @@ void pool_free(void* block, std::size_t bytes) noexcept;
 /// The largest block the pool gives.
 constexpr std::size_t kPoolLargest = 4096;
 
-/// Whether blocks come from the pool from now on. Takes effect only when no block is in use
-/// (a block goes back where it came from); returns whether the pool is in use after the call.
-bool pool_prefer(bool use_pool);
-
 /// From now on, in each thread's stripe of slabs until no block of that stripe is in use, freed
 /// blocks are not reused and each slab is unmapped as soon as its last block is freed: for the
 /// extraction, which frees the bricks brick by brick and makes none.
 void pool_drain() noexcept;
 
-/// What the pool holds: whether it serves blocks, its slabs, the blocks in use (either kind).
+/// What the pool holds: its slabs and the blocks in use.
 struct PoolUsage {
-  bool pooled = false;
   std::size_t slabs = 0, blocks = 0;
 };
 PoolUsage pool_usage();

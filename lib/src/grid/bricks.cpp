@@ -1500,8 +1500,6 @@ struct BrickSampler::Sampling {
 };
 
 BrickList BrickSampler::run() {
-  // The bricks from the pool (see brick_pool.h), unless another grid's from malloc are in use.
-  pool_prefer(true);
   Sampling s(solid_, geo_, opts_, interior_);
   if (s.dense_path())
     s.dense();
