@@ -13,6 +13,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "qjulia/base/error.h"
 #include "qjulia/field/params.h"
@@ -199,6 +201,38 @@ TEST(Estimate, ScalesWithTheResolution) {
   const int fits = largest_fitting_resolution(p, RunPlan{}, e, budget);
   EXPECT_LE(estimate_at(p, RunPlan{}, e, fits).peak_bytes, budget);
   EXPECT_GT(estimate_at(p, RunPlan{}, e, fits + 1).peak_bytes, budget);
+}
+
+TEST(Estimate, ProbesAtAQuarterOfTheRunUpTo256OrFrom2048On512) {
+  Params p = preset("unit-ball");
+  for (const auto& [resolution, probe] :
+       std::vector<std::pair<int, int>>{{512, 128}, {1024, 256}, {2047, 256}, {2048, 512}}) {
+    p.resolution = resolution;
+    const RunEstimate e = estimate_run(p, RunPlan{});
+    EXPECT_EQ(e.probe_resolution, probe) << resolution;
+    // A sphere's bricks grow as the square of the resolution, as its crossing cells do, once
+    // the probes see more than a few bricks across it (at 64 and 128: 2.3).
+    if (resolution >= 1024) EXPECT_NEAR(e.brick_exponent, 2.0, 0.1) << resolution;
+    std::printf("%d: probes at %d, bricks as N^%.3f, crossing cells as N^%.3f\n", resolution,
+                e.probe_resolution, e.brick_exponent, e.exponent);
+  }
+}
+
+// Where the bricks outweigh the mesh (many level-8 candidates, few crossing cells), the
+// sampling's end is the peak: about 1330 bytes a brick.
+TEST(Estimate, CountsTheSamplingsBricksWhereTheyOutweighTheMesh) {
+  Params p = preset("unit-ball");
+  p.resolution = 1024;
+  RunEstimate base;
+  base.probe_resolution = 256;
+  base.probe_cells = 10000;
+  base.probe_bricks = 100000;
+  base.exponent = 2;
+  base.brick_exponent = 2;
+  const RunEstimate e = estimate_at(p, RunPlan{}, base, 1024);
+  // 1.6M bricks at 1024; the crossing cells alone (160,000) would make about 41 MB.
+  EXPECT_GT(double(e.peak_bytes), 1330.0 * 1.6e6);
+  EXPECT_LT(double(e.peak_bytes), 1.5 * 1330.0 * 1.6e6);
 }
 
 }  // namespace

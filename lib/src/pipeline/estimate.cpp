@@ -18,7 +18,14 @@ namespace {
 constexpr double kProcess = 28.0 * (1 << 20);
 constexpr double kPerCell = 80;
 constexpr double kFacesPerCell = 2.1;
-constexpr double kBrickBytes = 2600;       // a brick with its values, sampling and extraction
+constexpr double kBrickBytes = 2600;  // a brick with its values, sampling and extraction
+// The sampling's own peak, at its end: the process then, every brick made (level-8 candidates
+// with their corners, refined bricks with their values, their links) and what grows with the
+// crossing cells. It is the run's peak where the mesh is small beside its bricks (classic-julia
+// from 1024 on).
+constexpr double kSampleProcess = 12.0 * (1 << 20);
+constexpr double kSampleBrickBytes = 1330;
+constexpr double kSampleCellBytes = 14;
 constexpr double kDenseBrickBytes = 3600;  // a brick of the dense path (all 729 values)
 constexpr double kVdbBrickBytes = 2400;    // a VDB leaf with its values and masks
 constexpr double kDecimatePerFace = 70;    // the simplifier's copies and the Hausdorff tree
@@ -134,6 +141,17 @@ RunEstimate estimate_at(const Params& params, const RunPlan& plan, const RunEsti
   // The bricks grow as the crossing cells do.
   const double bricks =
       base.probe_cells ? static_cast<double>(base.probe_bricks) * cells / base.probe_cells : 0.0;
+  // The sampling's peak: its bricks grow by their own power of the resolution (faster than the
+  // crossing cells: more level-8 candidates per crossing cell as the resolution grows).
+  double sampling = 0;
+  if (!plan.dense) {
+    const double sampled_bricks =
+        base.probe_resolution == resolution
+            ? static_cast<double>(base.probe_bricks)
+            : static_cast<double>(base.probe_bricks) * std::pow(ratio, base.brick_exponent);
+    sampling =
+        kSampleProcess + (kSampleBrickBytes * sampled_bricks + kSampleCellBytes * cells) * share;
+  }
   if (plan.dense) {
     const double side = std::ceil(resolution / 8.0) + 1;
     peak += side * side * side * kDenseBrickBytes;
@@ -148,6 +166,8 @@ RunEstimate estimate_at(const Params& params, const RunPlan& plan, const RunEsti
     if (f == MeshFormat::k3mf) peak += kThreeMfPerFace * final_faces;
     largest = std::max(largest, file_bytes(f, final_faces, final_vertices, colour));
   }
+  // The other stages come after the sampling's peak.
+  peak = std::max(peak, sampling);
   auto clamp = [](double x) {
     return x >= 1.8e19 ? std::numeric_limits<std::uint64_t>::max() : static_cast<std::uint64_t>(x);
   };
@@ -175,23 +195,30 @@ RunEstimate estimate_run(const Solid& solid, const RunPlan& plan) {
     e.probe_cells = p.cells;
     e.probe_bricks = p.bricks;
     e.exponent = 2;
+    e.brick_exponent = 2;
   } else {
-    // Two samplings at a quarter and an eighth of the run (at most 256 and 128): the crossing
-    // cells grow as a power of the resolution (2 for a smooth surface, more for a fractal).
-    const int fine = std::min(256, n / 4), coarse = fine / 2;
-    const std::uint64_t a = probe(solid, coarse, plan.cancel).cells;
+    // Two samplings at a quarter and an eighth of the run (at most 256 and 128, or 512 and 256
+    // from 2048 on, where extrapolating eightfold missed the peak by a third): the crossing cells
+    // and the bricks grow as powers of the resolution (2 for a smooth surface, more for a
+    // fractal).
+    const int fine = std::min(n >= 2048 ? 512 : 256, n / 4), coarse = fine / 2;
+    const Probe c = probe(solid, coarse, plan.cancel);
     const Probe p = probe(solid, fine, plan.cancel);
-    const std::uint64_t b = p.cells;
+    const std::uint64_t a = c.cells, b = p.cells;
     e.probe_resolution = fine;
     e.probe_cells = b;
     e.probe_bricks = p.bricks;
     e.exponent = (a > 0 && b > 0) ? std::clamp(std::log2(double(b) / double(a)), 1.5, 3.0) : 2.0;
+    e.brick_exponent = (c.bricks > 0 && p.bricks > 0)
+                           ? std::clamp(std::log2(double(p.bricks) / double(c.bricks)), 1.5, 3.0)
+                           : e.exponent;
     // A surface the probes barely see (a few cells) may be finer than they resolve: at least
     // the cells of a sphere filling the box.
     if (b < 64) {
       e.probe_cells = std::max<std::uint64_t>(b, 64);
       e.probe_bricks = std::max<std::uint64_t>(e.probe_bricks, 1);
       e.exponent = 3.0;
+      e.brick_exponent = 3.0;
     }
   }
   return estimate_at(params, plan, e, n);

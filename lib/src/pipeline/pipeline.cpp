@@ -465,6 +465,7 @@ std::string stats_to_json(const RunStats& s, const Params& params) {
                    {"vertices", e.vertices},
                    {"crossing_cells", e.cells},
                    {"exponent", e.exponent},
+                   {"brick_exponent", e.brick_exponent},
                    {"probe_resolution", e.probe_resolution},
                    {"largest_output_bytes", e.largest_output},
                    {"memory_limit_bytes", s.memory_limit},

@@ -33,6 +33,7 @@ struct RunEstimate {
   std::uint64_t probe_cells = 0;   ///< crossing cells found there
   std::uint64_t probe_bricks = 0;  ///< and bricks
   double exponent = 2;             ///< crossing cells grow as resolution^exponent
+  double brick_exponent = 2;       ///< the sampled bricks as resolution^brick_exponent
   std::uint64_t cells = 0;         ///< crossing cells expected at `resolution`
   std::uint64_t faces = 0;         ///< faces of the extracted mesh
   std::uint64_t vertices = 0;      ///< and vertices
@@ -41,8 +42,9 @@ struct RunEstimate {
   std::size_t largest_output = 0;  ///< bytes of the largest output file
 };
 
-/// Samples `params` at two lower resolutions (at most 1/4 of the run's and 256, sampling only)
-/// and extrapolates the crossing cells by the power law between them; the memory model's
+/// Samples `params` at two lower resolutions (at most 1/4 of the run's and 256, or 512 from 2048
+/// on; sampling only) and extrapolates the crossing cells and the bricks by the power laws
+/// between them; the memory model's
 /// coefficients are measured on this machine's builds (docs/design.md, "Memory").
 /// @throws InvalidInput for invalid params; Cancelled.
 RunEstimate estimate_run(const Params& params, const RunPlan& plan);
