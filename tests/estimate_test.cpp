@@ -138,7 +138,7 @@ TEST(Estimate, RefusesAGlbBeyondFourGibibytesBeforeTheWork) {
   EXPECT_NO_THROW(check_run(p, plan, e, unlimited));
   p.mesh.faces = 1000000;
   plan.outputs = {MeshFormat::kGlb};
-  EXPECT_NO_THROW(check_run(p, plan, estimate_run(p, plan), unlimited));
+  EXPECT_NO_THROW(check_run(p, plan, estimate_at(p, plan, e, p.resolution), unlimited));
 }
 
 // Binary STL counts its triangles in 32 bits: a mesh of more faces (but fewer than 2^32

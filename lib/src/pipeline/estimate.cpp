@@ -2,7 +2,11 @@
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <limits>
+#include <mutex>
+#include <string>
+#include <utility>
 
 #include "qjulia/base/error.h"
 #include "qjulia/field/classify.h"
@@ -41,11 +45,45 @@ struct Probe {
   std::uint64_t cells = 0, bricks = 0;
 };
 
+// The probes made so far in this process, by the set's parameters (all but the resolution) and
+// the probe's resolution: a refusal estimates several resolutions of one set, whose probes are
+// the same from 2048 on (sampling is deterministic, whatever the threads). The last few kept.
+class ProbeCache {
+ public:
+  bool find(const std::string& key, Probe& out) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [k, p] : entries_)
+      if (k == key) {
+        out = p;
+        return true;
+      }
+    return false;
+  }
+  void add(std::string key, const Probe& p) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (entries_.size() == kEntries) entries_.pop_front();
+    entries_.emplace_back(std::move(key), p);
+  }
+
+ private:
+  static constexpr std::size_t kEntries = 16;
+  std::mutex mutex_;
+  std::deque<std::pair<std::string, Probe>> entries_;
+};
+
 Probe probe(const Solid& solid, int resolution, const CancelToken* cancel) {
+  static ProbeCache cache;
+  Params key_params = solid.classifier().params();
+  key_params.resolution = 0;
+  const std::string key = std::to_string(resolution) + " " + params_to_json(key_params, false);
+  Probe p;
+  if (cache.find(key, p)) return p;
   SampleOptions so;
   so.cancel = cancel;
   const SampledGrid grid = sample(solid.at_resolution(resolution), so);
-  return {grid.crossing_cells(), grid.bricks()};
+  p = {grid.crossing_cells(), grid.bricks()};
+  cache.add(key, p);
+  return p;
 }
 
 // The bytes of the largest file `format` makes of the mesh.
