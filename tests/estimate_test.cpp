@@ -214,10 +214,22 @@ TEST(Estimate, ProbesAtAQuarterOfTheRunUpTo256OrFrom2048On512) {
     EXPECT_EQ(e.probe_resolution, probe) << resolution;
     // A sphere's bricks grow as the square of the resolution, as its crossing cells do, once
     // the probes see more than a few bricks across it (at 64 and 128: 2.3).
-    if (resolution >= 1024) EXPECT_NEAR(e.brick_exponent, 2.0, 0.1) << resolution;
+    if (resolution >= 1024) {
+      EXPECT_NEAR(e.brick_exponent, 2.0, 0.1) << resolution;
+    }
     std::printf("%d: probes at %d, bricks as N^%.3f, crossing cells as N^%.3f\n", resolution,
                 e.probe_resolution, e.brick_exponent, e.exponent);
   }
+  // A run the probes at 128 and 256 put above twice its limit is refused on them, at once; one
+  // within twice its limit gets the probe at 512.
+  p.resolution = 1024;  // probes at 128 and 256: their estimate of 2048
+  const RunEstimate first = estimate_at(p, RunPlan{}, estimate_run(p, RunPlan{}), 2048);
+  p.resolution = 2048;
+  RunPlan plan;
+  plan.limit = first.peak_bytes / 3;
+  EXPECT_EQ(estimate_run(p, plan).probe_resolution, 256);
+  plan.limit = first.peak_bytes;
+  EXPECT_EQ(estimate_run(p, plan).probe_resolution, 512);
 }
 
 // Where the bricks outweigh the mesh (many level-8 candidates, few crossing cells), the

@@ -238,18 +238,28 @@ RunEstimate estimate_run(const Solid& solid, const RunPlan& plan) {
     // Two samplings at a quarter and an eighth of the run (at most 256 and 128, or 512 and 256
     // from 2048 on, where extrapolating eightfold missed the peak by a third): the crossing cells
     // and the bricks grow as powers of the resolution (2 for a smooth surface, more for a
-    // fractal).
-    const int fine = std::min(n >= 2048 ? 512 : 256, n / 4), coarse = fine / 2;
-    const Probe c = probe(solid, coarse, plan.cancel);
-    const Probe p = probe(solid, fine, plan.cancel);
-    const std::uint64_t a = c.cells, b = p.cells;
-    e.probe_resolution = fine;
-    e.probe_cells = b;
-    e.probe_bricks = p.bricks;
-    e.exponent = (a > 0 && b > 0) ? std::clamp(std::log2(double(b) / double(a)), 1.5, 3.0) : 2.0;
-    e.brick_exponent = (c.bricks > 0 && p.bricks > 0)
-                           ? std::clamp(std::log2(double(p.bricks) / double(c.bricks)), 1.5, 3.0)
-                           : e.exponent;
+    // fractal). A run of 2048 or more that the probes at 128 and 256 put above twice its limit
+    // is refused on their estimate, at once.
+    auto from_probes = [&](int fine) {
+      const Probe c = probe(solid, fine / 2, plan.cancel);
+      const Probe p = probe(solid, fine, plan.cancel);
+      RunEstimate r;
+      r.probe_resolution = fine;
+      r.probe_cells = p.cells;
+      r.probe_bricks = p.bricks;
+      r.exponent = (c.cells > 0 && p.cells > 0)
+                       ? std::clamp(std::log2(double(p.cells) / double(c.cells)), 1.5, 3.0)
+                       : 2.0;
+      r.brick_exponent = (c.bricks > 0 && p.bricks > 0)
+                             ? std::clamp(std::log2(double(p.bricks) / double(c.bricks)), 1.5, 3.0)
+                             : r.exponent;
+      return r;
+    };
+    e = from_probes(std::min(256, n / 4));
+    if (n >= 2048 && !(plan.limit > 0 && double(estimate_at(params, plan, e, n).peak_bytes) >
+                                             2.0 * double(plan.limit)))
+      e = from_probes(512);
+    const std::uint64_t b = e.probe_cells;
     // A surface the probes barely see (a few cells) may be finer than they resolve: at least
     // the cells of a sphere filling the box.
     if (b < 64) {

@@ -80,11 +80,13 @@ RunPlan run_plan(const PipelineOptions& opts) {
 void estimate_and_check(const Solid& solid, const RunPlan& plan, const PipelineOptions& opts,
                         RunStats& stats, const std::string& where = "") {
   const Params& params = solid.classifier().params();
-  stats.estimate = estimate_run(solid, plan);
   const MemoryLimits limits = memory_limits(opts.max_memory);
+  RunPlan limited = plan;
+  limited.limit = limits.effective();
+  stats.estimate = estimate_run(solid, limited);
   stats.memory_limit = limits.effective();
   stats.memory_limit_source = limits.describe() + where;
-  check_run(params, plan, stats.estimate, limits);
+  check_run(params, limited, stats.estimate, limits);
 }
 
 // Whether the stages hand the memory they free back to the system between their passes

@@ -23,6 +23,10 @@ struct RunPlan {
   bool preview = false;             ///< a picture rendered
   int ranks = 1;                    ///< processes of a distributed run
   bool gathered = false;            ///< ... whose mesh is gathered to rank 0
+  /// The memory the run may use, when known (0: not known). From 2048 on, a run whose first
+  /// probes already estimate more than twice this is estimated from them alone (it is refused
+  /// either way), without the larger probe.
+  std::size_t limit = 0;
   const CancelToken* cancel = nullptr;
 };
 
@@ -43,8 +47,8 @@ struct RunEstimate {
 };
 
 /// Samples `params` at two lower resolutions (at most 1/4 of the run's and 256, or 512 from 2048
-/// on; sampling only) and extrapolates the crossing cells and the bricks by the power laws
-/// between them; the memory model's
+/// on unless plan.limit says the run is refused either way; sampling only) and extrapolates the
+/// crossing cells and the bricks by the power laws between them; the memory model's
 /// coefficients are measured on this machine's builds (docs/design.md, "Memory").
 /// @throws InvalidInput for invalid params; Cancelled.
 RunEstimate estimate_run(const Params& params, const RunPlan& plan);
