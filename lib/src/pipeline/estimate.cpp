@@ -181,18 +181,18 @@ RunEstimate estimate_at(const Params& params, const RunPlan& plan, const RunEsti
       base.probe_cells ? static_cast<double>(base.probe_bricks) * cells / base.probe_cells : 0.0;
   // The sampling's peak: its bricks grow by their own power of the resolution (faster than the
   // crossing cells: more level-8 candidates per crossing cell as the resolution grows).
+  // The dense path has its own term instead.
   double sampling = 0;
-  if (!plan.dense) {
+  if (plan.dense) {
+    const double side = std::ceil(resolution / 8.0) + 1;
+    peak += side * side * side * kDenseBrickBytes;
+  } else {
     const double sampled_bricks =
         base.probe_resolution == resolution
             ? static_cast<double>(base.probe_bricks)
             : static_cast<double>(base.probe_bricks) * std::pow(ratio, base.brick_exponent);
     sampling =
         kSampleProcess + (kSampleBrickBytes * sampled_bricks + kSampleCellBytes * cells) * share;
-  }
-  if (plan.dense) {
-    const double side = std::ceil(resolution / 8.0) + 1;
-    peak += side * side * side * kDenseBrickBytes;
   }
   if (plan.keep_grid) peak += bricks * (kBrickBytes + kVdbBrickBytes);
   if (params.mesh.faces || params.mesh.max_error) peak += kDecimatePerFace * faces;
@@ -247,12 +247,13 @@ RunEstimate estimate_run(const Solid& solid, const RunPlan& plan) {
       r.probe_resolution = fine;
       r.probe_cells = p.cells;
       r.probe_bricks = p.bricks;
-      r.exponent = (c.cells > 0 && p.cells > 0)
-                       ? std::clamp(std::log2(double(p.cells) / double(c.cells)), 1.5, 3.0)
-                       : 2.0;
-      r.brick_exponent = (c.bricks > 0 && p.bricks > 0)
-                             ? std::clamp(std::log2(double(p.bricks) / double(c.bricks)), 1.5, 3.0)
-                             : r.exponent;
+      // The power of the resolution from a count at half the resolution to one at the full.
+      auto growth = [](std::uint64_t half, std::uint64_t full, double otherwise) {
+        return half > 0 && full > 0 ? std::clamp(std::log2(double(full) / double(half)), 1.5, 3.0)
+                                    : otherwise;
+      };
+      r.exponent = growth(c.cells, p.cells, 2.0);
+      r.brick_exponent = growth(c.bricks, p.bricks, r.exponent);
       return r;
     };
     e = from_probes(std::min(256, n / 4));

@@ -84,7 +84,7 @@ void estimate_and_check(const Solid& solid, const RunPlan& plan, const PipelineO
   RunPlan limited = plan;
   limited.limit = limits.effective();
   stats.estimate = estimate_run(solid, limited);
-  stats.memory_limit = limits.effective();
+  stats.memory_limit = limited.limit;
   stats.memory_limit_source = limits.describe() + where;
   check_run(params, limited, stats.estimate, limits);
 }
