@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <new>
 #include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
@@ -18,6 +19,7 @@
 
 #include "qjulia/base/error.h"
 #include "qjulia/field/params.h"
+#include "qjulia/pipeline/pipeline.h"
 
 namespace qjulia {
 namespace {
@@ -28,17 +30,19 @@ struct MeshRun {
   int code = -1;
   std::string err;
   nlohmann::json stats;
+  bool written = false;
 };
 
-// `qjulia mesh ARGS -o x.ply --stats s.json` in a directory of its own.
-MeshRun mesh(const std::string& args) {
+// `qjulia mesh ARGS -o x.ply --stats s.json` in a directory of its own, after the shell
+// commands `before` (such as a ulimit). `written`: whether x.ply was there after.
+MeshRun mesh(const std::string& args, const std::string& before = "") {
   const fs::path dir =
       fs::temp_directory_path() / ("qjulia_estimate_test_" + std::to_string(::getpid()) + "_" +
                                    std::to_string(std::hash<std::string>()(args)));
   fs::remove_all(dir);
   fs::create_directories(dir);
-  const std::string cmd = "cd '" + dir.string() + "' && '" QJULIA_CLI "' mesh " + args +
-                          " --quiet -o x.ply --stats s.json 2> err.txt > /dev/null";
+  const std::string cmd = "cd '" + dir.string() + "' && " + before + "'" QJULIA_CLI "' mesh " +
+                          args + " --quiet -o x.ply --stats s.json 2> err.txt > /dev/null";
   MeshRun r;
   const int status = std::system(cmd.c_str());
   r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
@@ -47,6 +51,7 @@ MeshRun mesh(const std::string& args) {
   s << err.rdbuf();
   r.err = s.str();
   if (fs::exists(dir / "s.json")) r.stats = nlohmann::json::parse(std::ifstream(dir / "s.json"));
+  r.written = fs::exists(dir / "x.ply");
   fs::remove_all(dir);
   return r;
 }
@@ -120,6 +125,71 @@ TEST(Estimate, RefusesWhatDoesNotFitWithTheLargestResolutionThatDoes) {
   EXPECT_LE(ok.stats["peak_rss_bytes"].get<double>(), 1.5 * 1073741824.0);
   const MeshRun over = mesh("--resolution " + std::to_string(fits * 5 / 4) + " --max-memory 1G");
   EXPECT_EQ(over.code, 2) << over.err;
+}
+
+// Under an address-space limit (ulimit -v), a run completes or is refused before its work,
+// naming that limit: the estimate counts what malloc reserves beyond the memory it holds, and
+// no run starts that then runs out of address space. classic-julia at 512 on one thread and on
+// two (a worker's heap), from limits that refuse it to limits it runs under.
+TEST(Estimate, AddressSpaceLimitRefusesRatherThanRunningOut) {
+  for (int threads : {1, 2}) {
+    int completed = 0, refused = 0;
+    for (int kib = 150000; kib <= 350000; kib += 50000) {
+      SCOPED_TRACE(std::to_string(threads) + " threads, ulimit -v " + std::to_string(kib));
+      const MeshRun r =
+          mesh("--preset classic-julia --resolution 512 --threads " + std::to_string(threads),
+               "ulimit -v " + std::to_string(kib) + " && ");
+      if (r.code == 0) {
+        ++completed;
+        EXPECT_TRUE(r.written);
+        continue;
+      }
+      ++refused;
+      EXPECT_EQ(r.code, 2) << r.err;
+      EXPECT_NE(r.err.find("needs about"), std::string::npos) << r.err;
+      EXPECT_NE(r.err.find("(the address-space limit) is available"), std::string::npos) << r.err;
+      EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "one line: " << r.err;
+      EXPECT_FALSE(r.written);
+    }
+    EXPECT_GT(completed, 0) << threads << " threads";
+    EXPECT_GT(refused, 0) << threads << " threads";
+  }
+}
+
+// A run that runs out of memory all the same (here: an allocation refused in the extraction,
+// thrown from its progress callback) ends in one TooLarge naming the resolution, the stage, the
+// memory held, the estimate and the limit, not a bare std::bad_alloc.
+TEST(Estimate, ARunThatRunsOutOfMemoryNamesItsStageAndItsEstimate) {
+  Params p = preset("classic-julia");
+  p.resolution = 64;
+  PipelineOptions opts;
+  opts.progress = [](const std::string& stage, double f) -> bool {
+    if (stage == "extract" && f > 0) throw std::bad_alloc();
+    return true;
+  };
+  try {
+    run_pipeline(p, opts);
+    FAIL() << "the run completed";
+  } catch (const TooLarge& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.find("resolution 64 ran out of memory in the extract stage (peak "), 0u) << what;
+    EXPECT_NE(what.find(" resident; estimated "), std::string::npos) << what;
+    EXPECT_NE(what.find(", limit "), std::string::npos) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
+  // Before the estimate there is none to give.
+  opts.progress = [](const std::string& stage, double) -> bool {
+    if (stage == "estimate") throw std::bad_alloc();
+    return true;
+  };
+  try {
+    run_pipeline(p, opts);
+    FAIL() << "the run completed";
+  } catch (const TooLarge& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("in the estimate stage (peak "), std::string::npos) << what;
+    EXPECT_EQ(what.find("estimated"), std::string::npos) << what;
+  }
 }
 
 TEST(Estimate, RefusesAGlbBeyondFourGibibytesBeforeTheWork) {

@@ -120,7 +120,7 @@ set +e
 code=$?
 set -e
 [ "$code" != 0 ] || fail "the job with a failing rank exited 0"
-grep -q "error on rank 1" "$work/fail.out" || { cat "$work/fail.out"; fail "no message from rank 1"; }
+grep -q "error on rank 1: out of memory (peak " "$work/fail.out" || { cat "$work/fail.out"; fail "no message from rank 1"; }
 [ -z "$(ls -A "$work/sig")" ] || fail "the job with a failing rank left $(ls -A "$work/sig")"
 echo "ok: a rank failing mid-run ends the job (exit $code), no file left"
 left=$(find "$work" -name "*tmp-*")

@@ -7,6 +7,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <new>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,7 @@
 #include "mpi_comm.h"
 #include "progress_bar.h"
 #include "qjulia/base/error.h"
+#include "qjulia/base/memory.h"
 #include "qjulia/io/mesh_io.h"
 #include "qjulia/pipeline/distributed.h"
 #include "signals.h"
@@ -120,6 +122,12 @@ int main(int argc, char** argv) {
                    : signal         ? " by SIGTERM"
                                     : "");
       MPI_Abort(MPI_COMM_WORLD, signal ? qjulia::cli::exit_code_for_signal(signal) : 1);
+    } catch (const std::bad_alloc&) {
+      // This rank alone: the others may be waiting for it in a collective step.
+      std::fprintf(stderr, "qjulia-mpi mesh: error on rank %d: out of memory (peak %s resident)\n",
+                   comm.rank(),
+                   qjulia::format_bytes(static_cast<double>(qjulia::peak_rss_bytes())).c_str());
+      MPI_Abort(MPI_COMM_WORLD, 1);
     } catch (const std::exception& e) {
       std::fprintf(stderr, "qjulia-mpi mesh: error on rank %d: %s\n", comm.rank(), e.what());
       MPI_Abort(MPI_COMM_WORLD, 1);

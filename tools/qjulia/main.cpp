@@ -2,12 +2,14 @@
 #include <csignal>
 #include <cstdio>
 #include <exception>
+#include <new>
 #include <string>
 #include <vector>
 
 #include "commands.h"
 #include "malloc_setup.h"
 #include "qjulia/base/error.h"
+#include "qjulia/base/memory.h"
 #include "qjulia/pipeline/pipeline.h"
 #include "signals.h"
 
@@ -100,6 +102,13 @@ int main(int argc, char** argv) {
     }
     std::fprintf(stderr, "qjulia %s: cancelled\n", command.c_str());
     return 1;
+  } catch (const std::bad_alloc&) {
+    // Outside a run's stages (which name theirs, as a TooLarge above): what was written is
+    // removed by now, as for any error.
+    std::fprintf(stderr, "qjulia %s: out of memory (peak %s resident); nothing written\n",
+                 command.c_str(),
+                 qjulia::format_bytes(static_cast<double>(qjulia::peak_rss_bytes())).c_str());
+    return 2;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "qjulia %s: error: %s\n", command.c_str(), one_line(e.what()).c_str());
     return 1;

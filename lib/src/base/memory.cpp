@@ -11,6 +11,7 @@
 #include <limits>
 #include <sstream>
 
+#include "base/threads.h"
 #include "qjulia/base/error.h"
 
 namespace qjulia {
@@ -98,6 +99,13 @@ std::optional<std::size_t> address_space_room() {
     std::string rest;
     std::getline(in, rest);
   }
+  // What a run's threads reserve beyond the memory they hold: glibc's malloc gives each thread
+  // that allocates a heap of 64 MiB (HEAP_MAX_SIZE) of address space, and the main heap's top is
+  // padded by as much (the CLI's M_TOP_PAD). classic-julia at 512 reached 69 MiB more address
+  // space than resident memory on one thread, 127 MiB on two; without this, on two threads it ran
+  // out of address space at 66 MiB resident under a limit of 195 MiB, which the estimate
+  // (105 MiB) had let it start under.
+  used += detail::threads_that_may_run() * (std::size_t(64) << 20);
   const std::size_t limit = static_cast<std::size_t>(r.rlim_cur);
   return limit > used ? limit - used : 0;
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstring>
+#include <new>
 #include <nlohmann/json.hpp>
 
 #include "base/distribution.h"
@@ -45,6 +46,8 @@ class StageTimer {
         std::chrono::duration<double>(std::chrono::steady_clock::now() - begin_).count();
     stats_.timings.emplace_back(stage_, s);
   }
+  // The stage started last.
+  const std::string& stage() const { return stage_; }
 
  private:
   RunStats& stats_;
@@ -62,6 +65,28 @@ void record_grid(const SampledGrid& grid, Comm* comm, RunStats& stats) {
   stats.crossing_cells = total(grid.crossing_cells());
   stats.voxel_size = grid.voxel_size();
   stats.grid_points = grid.points();
+}
+
+// A run's std::bad_alloc (an allocation that the address-space limit, or the system, refused)
+// as a TooLarge: one line that names the stage, what the process held, and the estimate and the
+// limit it was checked against, and the CLI's exit code of a run too large (2), not a bare
+// "std::bad_alloc". Every stage's memory is released as the exception unwinds, before the message
+// is built. One process's runs only: a rank of a distributed run that runs out of memory is alone
+// in it, and ends the job (qjulia-mpi), since the other ranks may be waiting for it.
+template <class Stages>
+auto with_memory_message(const Params& params, const RunStats& stats, const StageTimer& timer,
+                         Stages&& stages) -> decltype(stages()) {
+  try {
+    return stages();
+  } catch (const std::bad_alloc&) {
+    std::string what = "resolution " + std::to_string(params.resolution) +
+                       " ran out of memory in the " + timer.stage() + " stage (peak " +
+                       format_bytes(static_cast<double>(peak_rss_bytes())) + " resident";
+    if (stats.estimate.peak_bytes)
+      what += "; estimated " + format_bytes(static_cast<double>(stats.estimate.peak_bytes)) +
+              ", limit " + stats.memory_limit_source;
+    throw TooLarge(what + "); a lower --resolution, or more memory, may fit");
+  }
 }
 
 // What the run does besides sampling, extracting and cleaning, for the estimate.
@@ -181,64 +206,65 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
   PipelineResult result;
   RunStats& stats = result.stats;
   StageTimer timer(stats, opts.progress, opts.cancel);
-
-  // What the run will need, before it starts.
-  {
-    timer.start("estimate");
-    estimate_and_check(solid, run_plan(opts), opts, stats);
-    timer.stop();
-  }
-
-  SampleOptions sopts;
-  sopts.dense = opts.dense;
-  sopts.cancel = opts.cancel;
-  sopts.return_free_memory = return_free_memory(stats);
-  sopts.progress = timer.start("sample");
-  SampledGrid grid = sample(solid, sopts);
-  timer.stop();
-  record_grid(grid, nullptr, stats);
-
-  ExtractOptions eopts = extract_options(params, opts, timer);
-  eopts.return_free_memory = sopts.return_free_memory;
-  eopts.memory_limit = stats.memory_limit;
-  ExtractStats estats;
-  TriMesh mesh =
-      opts.keep_grid ? extract(grid, eopts, &estats) : extract(std::move(grid), eopts, &estats);
-  timer.stop();
-  stats.refine_evaluations = estats.evaluations;
-  stats.unembedded_cells = estats.unembedded_cells;
-
-  // Dust: the extracted mesh is closed, manifold and free of duplicate vertices, and its
-  // components are measured, so only the small ones go (the measures follow). A mesh whose
-  // bricks did not check out goes through the general clean().
-  CleanReport creport;
-  std::optional<MeshMeasure> known;  // the measures of `mesh` while they stay true
-  {
-    const ProgressFn progress = timer.start("clean");
-    const double voxel = stats.voxel_size;
-    if (estats.measure_valid) {
-      const double threshold = params.mesh.min_component
-                                   ? *params.mesh.min_component
-                                   : kDefaultDustVoxels * voxel * voxel * voxel;
-      creport = detail::remove_dust(mesh, estats, threshold);
-      known = std::move(estats.measure);
-      std::vector<std::uint32_t>().swap(estats.face_component);  // not needed any more
-    } else {
-      CleanOptions copts;
-      copts.min_component_volume = params.mesh.min_component;
-      copts.voxel_size = voxel;
-      copts.cancel = opts.cancel;
-      copts.progress = progress;
-      mesh = clean(mesh, copts, &creport);
+  with_memory_message(params, stats, timer, [&] {
+    // What the run will need, before it starts.
+    {
+      timer.start("estimate");
+      estimate_and_check(solid, run_plan(opts), opts, stats);
+      timer.stop();
     }
-  }
-  timer.stop();
-  stats.clean = creport;
 
-  finish_mesh(params, opts, mesh, known, stats, timer);
-  stats.peak_rss_bytes = peak_rss_bytes();
-  result.mesh = std::move(mesh);
-  if (opts.keep_grid) result.grid = std::move(grid);
+    SampleOptions sopts;
+    sopts.dense = opts.dense;
+    sopts.cancel = opts.cancel;
+    sopts.return_free_memory = return_free_memory(stats);
+    sopts.progress = timer.start("sample");
+    SampledGrid grid = sample(solid, sopts);
+    timer.stop();
+    record_grid(grid, nullptr, stats);
+
+    ExtractOptions eopts = extract_options(params, opts, timer);
+    eopts.return_free_memory = sopts.return_free_memory;
+    eopts.memory_limit = stats.memory_limit;
+    ExtractStats estats;
+    TriMesh mesh =
+        opts.keep_grid ? extract(grid, eopts, &estats) : extract(std::move(grid), eopts, &estats);
+    timer.stop();
+    stats.refine_evaluations = estats.evaluations;
+    stats.unembedded_cells = estats.unembedded_cells;
+
+    // Dust: the extracted mesh is closed, manifold and free of duplicate vertices, and its
+    // components are measured, so only the small ones go (the measures follow). A mesh whose
+    // bricks did not check out goes through the general clean().
+    CleanReport creport;
+    std::optional<MeshMeasure> known;  // the measures of `mesh` while they stay true
+    {
+      const ProgressFn progress = timer.start("clean");
+      const double voxel = stats.voxel_size;
+      if (estats.measure_valid) {
+        const double threshold = params.mesh.min_component
+                                     ? *params.mesh.min_component
+                                     : kDefaultDustVoxels * voxel * voxel * voxel;
+        creport = detail::remove_dust(mesh, estats, threshold);
+        known = std::move(estats.measure);
+        std::vector<std::uint32_t>().swap(estats.face_component);  // not needed any more
+      } else {
+        CleanOptions copts;
+        copts.min_component_volume = params.mesh.min_component;
+        copts.voxel_size = voxel;
+        copts.cancel = opts.cancel;
+        copts.progress = progress;
+        mesh = clean(mesh, copts, &creport);
+      }
+    }
+    timer.stop();
+    stats.clean = creport;
+
+    finish_mesh(params, opts, mesh, known, stats, timer);
+    stats.peak_rss_bytes = peak_rss_bytes();
+    result.mesh = std::move(mesh);
+    if (opts.keep_grid) result.grid = std::move(grid);
+  });
   return result;
 }
 

@@ -11,8 +11,10 @@ namespace qjulia {
 struct MemoryLimits {
   std::optional<std::size_t> mem_available;  ///< MemAvailable of /proc/meminfo
   std::optional<std::size_t> cgroup;         ///< the cgroup's limit minus its current usage
-  std::optional<std::size_t> address_space;  ///< RLIMIT_AS minus the current address space
-  std::optional<std::size_t> requested;      ///< what the caller allows (e.g. --max-memory)
+  /// RLIMIT_AS minus the current address space and what malloc reserves beyond the memory it
+  /// holds (64 MiB a thread)
+  std::optional<std::size_t> address_space;
+  std::optional<std::size_t> requested;  ///< what the caller allows (e.g. --max-memory)
 
   /// The smallest of the limits that are set; SIZE_MAX when none is.
   std::size_t effective() const;
