@@ -86,7 +86,9 @@ struct PipelineResult {
 };
 
 /// Runs every stage of `params`.
-/// @throws InvalidInput for invalid params; Cancelled when progress returns false.
+/// @throws InvalidInput for invalid params; TooLarge (an InvalidInput) for a run the estimate
+/// refuses, or one that runs out of memory all the same (its message names the stage, the peak,
+/// the estimate and the limit); Cancelled when progress returns false.
 PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts = {});
 
 /// The --stats JSON of a run (docs/design.md's keys and more).
