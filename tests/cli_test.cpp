@@ -238,6 +238,22 @@ TEST_F(Cli, ADecimationThatStopsAboveItsTargetSaysSoOnStderr) {
   const CliRun ok = run("mesh --preset unit-ball --resolution 48 --faces 2000 --quiet -o b.ply");
   ASSERT_EQ(ok.code, 0) << ok.err;
   EXPECT_EQ(ok.err.find("note:"), std::string::npos) << ok.err;
+  // Far fewer faces than a genus-12 surface can have: the mesh keeps its topology and stops
+  // above the budget (it used to collapse to nothing: exit 2, "the solid is empty").
+  const CliRun whole =
+      run("mesh --preset classic-julia --resolution 64 --quiet -o w.ply --stats w.json");
+  ASSERT_EQ(whole.code, 0) << whole.err;
+  const CliRun tiny =
+      run("mesh --preset classic-julia --resolution 64 --faces 4 --quiet -o t.ply --stats t.json");
+  ASSERT_EQ(tiny.code, 0) << tiny.err;
+  EXPECT_NE(tiny.err.find("above the 4 asked for"), std::string::npos) << tiny.err;
+  const json w = json::parse(read_text(work_ / "w.json")),
+             t = json::parse(read_text(work_ / "t.json"));
+  EXPECT_EQ(t["decimate"]["target_reached"], false);
+  EXPECT_LT(t["faces"].get<long long>(), w["faces"].get<long long>() / 10);
+  EXPECT_EQ(t["euler"], w["euler"]);
+  EXPECT_EQ(t["components"], w["components"]);
+  EXPECT_TRUE(t["closed"].get<bool>() && t["manifold"].get<bool>());
 }
 
 TEST_F(Cli, AnUnknownCommandExitsTwo) {

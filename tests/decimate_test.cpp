@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <set>
 
 #include "qjulia/base/error.h"
 #include "qjulia/base/progress.h"
@@ -135,6 +136,71 @@ TEST(Decimate, BumpyMillionFaceMeshTakesTheChunkedPathAndStaysClosed) {
   EXPECT_EQ(topo.euler, 2);
   EXPECT_NEAR(fixtures::volume(out), fixtures::volume(bumpy), 0.01 * fixtures::volume(bumpy));
   EXPECT_LT(rep.hausdorff, 0.02);
+}
+
+namespace {
+/// Vertex-connected components of the faces.
+std::size_t components(const TriMesh& m) {
+  std::vector<uint32_t> parent(m.positions.size());
+  for (uint32_t v = 0; v < parent.size(); ++v) parent[v] = v;
+  auto find = [&](uint32_t v) {
+    while (parent[v] != v) v = parent[v] = parent[parent[v]];
+    return v;
+  };
+  for (const auto& t : m.triangles) {
+    parent[find(t[0])] = find(t[1]);
+    parent[find(t[1])] = find(t[2]);
+  }
+  std::set<uint32_t> roots;
+  for (const auto& t : m.triangles) roots.insert(find(t[0]));
+  return roots.size();
+}
+}  // namespace
+
+TEST(Decimate, ABudgetBelowWhatTheSurfaceCanHoldKeepsItsTopologyAndShape) {
+  // classic-julia at 64: 24,124 faces, genus 12. One pass of the collapses to 1000 faces left
+  // 3,428 faces and a third of the volume; to 20, a tetrahedron; to 4, nothing. The budget is
+  // met only with the input's components and Euler characteristic, else the result stops above
+  // it and says so.
+  qjulia::Params params = qjulia::preset("classic-julia");
+  params.resolution = 64;
+  const TriMesh mesh = qjulia::run_pipeline(params).mesh;
+  const auto before = fixtures::check(mesh);
+  ASSERT_TRUE(before.closed_manifold_oriented);
+  const std::size_t parts = components(mesh);
+  const double volume = fixtures::volume(mesh);
+  for (const long long budget : {1000LL, 20LL, 4LL}) {
+    qjulia::DecimateOptions opts;
+    opts.faces = budget;
+    qjulia::DecimateReport rep;
+    const TriMesh out = qjulia::decimate(mesh, opts, &rep);
+    const auto after = fixtures::check(out);
+    EXPECT_TRUE(after.closed_manifold_oriented) << budget;
+    EXPECT_EQ(after.euler, before.euler) << budget;
+    EXPECT_EQ(components(out), parts) << budget;
+    EXPECT_NEAR(fixtures::volume(out), volume, 0.08 * volume) << budget;
+    EXPECT_LT(out.face_count(), mesh.face_count() / 10) << budget;
+    EXPECT_EQ(rep.faces_after, out.face_count());
+    EXPECT_EQ(rep.target_reached, out.face_count() <= static_cast<std::size_t>(budget)) << budget;
+    if (budget < 100) {
+      EXPECT_FALSE(rep.target_reached) << budget;
+    }
+  }
+}
+
+TEST(Decimate, ATorusDecimatedHardKeepsItsHole) {
+  const TriMesh torus = fixtures::torus(200, 100, 0.05);  // 40,000 faces, genus 1
+  for (const long long budget : {400LL, 8LL}) {
+    qjulia::DecimateOptions opts;
+    opts.faces = budget;
+    qjulia::DecimateReport rep;
+    const TriMesh out = qjulia::decimate(torus, opts, &rep);
+    const auto topo = fixtures::check(out);
+    EXPECT_TRUE(topo.closed_manifold_oriented) << budget;
+    EXPECT_EQ(topo.euler, 0) << budget;
+    EXPECT_EQ(components(out), 1u) << budget;
+    EXPECT_LT(out.face_count(), 2000u) << budget;
+  }
 }
 
 TEST(Decimate, BudgetAboveTheFaceCountReturnsTheInput) {

@@ -13,7 +13,10 @@ namespace qjulia {
 /// vertices only and report the same measured Hausdorff distance.
 enum class DecimateMethod {
   /// meshoptimizer's quadric simplifier under qjulia's topology guard, in parallel chunks: about
-  /// 1.2M input faces per second on two cores. The default.
+  /// 1.2M input faces per second on two cores. Under a face budget the result keeps the input's
+  /// components and Euler characteristic: when one pass does not, the mesh is decimated in
+  /// stages, which stop above the budget where collapsing more would change them (a few times
+  /// slower). The default.
   kFast,
   /// OpenMesh's Decimater (ModQuadric order, ModNormalFlipping at 45 degrees, ModHausdorff with
   /// max_error): keeps the genus, reaches face budgets the fast method cannot on fractal meshes
@@ -38,8 +41,10 @@ struct DecimateOptions {
 struct DecimateReport {
   std::size_t faces_before = 0;
   std::size_t faces_after = 0;
-  double hausdorff = 0.0;      ///< two-sided distance between input and output, model units
-  bool target_reached = true;  ///< false when the budget could not be met within the bound
+  double hausdorff = 0.0;  ///< two-sided distance between input and output, model units
+  /// false when the budget could not be met within the bound (or, by the fast method, without
+  /// changing the components or the Euler characteristic)
+  bool target_reached = true;
   bool closed = true;    ///< the result has no boundary or non-manifold edge (as a closed input)
   bool manifold = true;  ///< the result has no non-manifold edge or vertex and is oriented
   /// Intersecting face pairs left (set when avoid_self_intersections was asked).
