@@ -157,6 +157,16 @@ TEST(Export, UnknownExtensionThrowsNamingItAndTheAcceptedOnes) {
         << msg;
   }
   EXPECT_THROW(qjulia::format_from_path("dir.glb/mesh"), InvalidInput);
+  // Without an extension, the message says so in a sentence (it read "unknown output format no
+  // extension").
+  try {
+    qjulia::format_from_path("/dev/full");
+    FAIL() << "no exception";
+  } catch (const InvalidInput& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "/dev/full: the output format follows the file's extension, and it has none (use "
+              ".glb, .gltf, .obj, .ply, .stl or .3mf)");
+  }
   TempDir dir;
   EXPECT_THROW(qjulia::write_mesh(dir.file("m.xyz"), icosphere(0)), InvalidInput);
   EXPECT_EQ(dir.names().size(), 0u);

@@ -215,9 +215,12 @@ MeshFormat format_from_path(const std::string& path) {
   if (ext == ".ply") return MeshFormat::kPly;
   if (ext == ".stl") return MeshFormat::kStl;
   if (ext == ".3mf") return MeshFormat::k3mf;
-  const std::string shown = ext.empty() ? std::string("no extension") : "'" + ext + "'";
-  throw InvalidInput(path + ": unknown output format " + shown +
-                     " (use .glb, .gltf, .obj, .ply, .stl or .3mf)");
+  if (ext.empty())
+    throw InvalidInput(path +
+                       ": the output format follows the file's extension, and it has none (use "
+                       ".glb, .gltf, .obj, .ply, .stl or .3mf)");
+  throw InvalidInput(path + ": unknown output format '" + ext +
+                     "' (use .glb, .gltf, .obj, .ply, .stl or .3mf)");
 }
 
 std::vector<std::string> output_files(const std::string& path) {
