@@ -159,6 +159,7 @@ inline void append(TriMesh& a, const TriMesh& b) {
 struct Topology {
   bool closed_manifold_oriented = false;
   long long euler = 0;
+  std::size_t components = 0;  ///< vertex-connected components of the faces
 };
 
 inline Topology check(const TriMesh& m) {
@@ -200,6 +201,19 @@ inline Topology check(const TriMesh& m) {
   }
   out.closed_manifold_oriented = ok;
   out.euler = (long long)verts.size() - (long long)edges + (long long)m.triangles.size();
+  std::vector<uint32_t> parent(m.positions.size());
+  for (uint32_t v = 0; v < parent.size(); ++v) parent[v] = v;
+  auto find = [&](uint32_t v) {
+    while (parent[v] != v) v = parent[v] = parent[parent[v]];
+    return v;
+  };
+  for (const auto& t : m.triangles) {
+    parent[find(t[0])] = find(t[1]);
+    parent[find(t[1])] = find(t[2]);
+  }
+  std::set<uint32_t> roots;
+  for (const auto& t : m.triangles) roots.insert(find(t[0]));
+  out.components = roots.size();
   return out;
 }
 

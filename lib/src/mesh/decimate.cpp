@@ -468,14 +468,12 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
       }
       if (last) {
         out = std::move(*last);
-      } else {
-        out = Outcome();  // no stage kept the shape: the input
+      } else {  // no stage kept the shape: the input
         out.s.mesh = mesh;
         out.s.mesh.normals.clear();
         out.rep = unchanged_report(mesh);
       }
-      out.rep.faces_before = mesh.face_count();
-      out.rep.faces_after = out.s.mesh.face_count();
+      out.rep.faces_before = mesh.face_count();  // a stage's report counts from its own input
       out.rep.target_reached = out.rep.faces_after <= budget &&
                                (!opts.max_error || out.rep.hausdorff <= *opts.max_error);
     }
