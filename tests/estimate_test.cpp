@@ -91,6 +91,23 @@ TEST(Estimate, PeakMemoryWithinOneAndAHalfTimesAt1024) {
   expect_estimate_within_1_5x("newton-cubic", 1024);
 }
 
+// Thickening re-meshes the surface on a level set of a quarter of the thickness: its faces and
+// its memory, not the extracted mesh's, make the run's peak (classic-julia at 64 thickened by
+// 0.035: 24,000 faces become about 700,000).
+TEST(Estimate, PeakMemoryWithinOneAndAHalfTimesWhenThickening) {
+  const MeshRun r = mesh("--preset classic-julia --resolution 64 --min-thickness 0.035");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const double faces = r.stats["faces"].get<double>();
+  const double thickened = r.stats["estimate"]["thickened_faces"].get<double>();
+  EXPECT_GT(faces, 20 * r.stats["estimate"]["faces"].get<double>());
+  EXPECT_LE(thickened, 1.5 * faces);
+  EXPECT_GE(thickened, faces / 1.5);
+  const double estimate = r.stats["estimate"]["peak_bytes"].get<double>();
+  const double peak = r.stats["peak_rss_bytes"].get<double>();
+  EXPECT_LE(estimate, 1.5 * peak) << estimate / 1048576 << " MiB, peak " << peak / 1048576;
+  EXPECT_GE(estimate, peak / 1.5) << estimate / 1048576 << " MiB, peak " << peak / 1048576;
+}
+
 // check_run's refusal of a run: its TooLarge message, or "" (a failure) when it accepts it.
 std::string refusal(const Params& p, const RunPlan& plan, const RunEstimate& e,
                     const MemoryLimits& limits) {
@@ -125,6 +142,60 @@ TEST(Estimate, RefusesWhatDoesNotFitWithTheLargestResolutionThatDoes) {
   EXPECT_LE(ok.stats["peak_rss_bytes"].get<double>(), 1.5 * 1073741824.0);
   const MeshRun over = mesh("--resolution " + std::to_string(fits * 5 / 4) + " --max-memory 1G");
   EXPECT_EQ(over.code, 2) << over.err;
+}
+
+// The thickness a refusal names as the smallest that fits (mm); 0 when it names none.
+double offered_thickness(const std::string& what) {
+  const std::string lead = "the smallest minimum thickness that fits is ";
+  const auto at = what.find(lead);
+  return at == std::string::npos ? 0 : std::stod(what.substr(at + lead.size()));
+}
+
+// A thickness too fine for the memory (a 0.1 mm wall on an 80 mm ball is a level set of 88
+// million faces) is refused before the work, naming the smallest thickness that fits; that one
+// runs within the limit, and a finer one is refused.
+TEST(Estimate, RefusesWhatDoesNotFitWithTheSmallestThicknessThatDoes) {
+  const std::string ball = "--preset unit-ball --resolution 32 --size 80mm --max-memory 200M ";
+  const MeshRun r = mesh(ball + "--min-thickness 0.1mm");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_FALSE(r.written);
+  EXPECT_EQ(r.err.find("qjulia mesh: a minimum thickness of 0.1 mm needs about "), 0u) << r.err;
+  EXPECT_NE(r.err.find("200.0 MiB (--max-memory)"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << r.err;
+  const double fits = offered_thickness(r.err);
+  ASSERT_GT(fits, 0.1) << r.err;
+  EXPECT_LT(fits, 10.0) << r.err;
+  const MeshRun ok = mesh(ball + "--min-thickness " + std::to_string(fits) + "mm");
+  EXPECT_EQ(ok.code, 0) << ok.err;
+  EXPECT_LE(ok.stats["peak_rss_bytes"].get<double>(), 1.5 * 200 * 1048576.0);
+  const MeshRun over = mesh(ball + "--min-thickness " + std::to_string(fits * 0.8) + "mm");
+  EXPECT_EQ(over.code, 2) << over.err;
+  EXPECT_NEAR(offered_thickness(over.err), fits, 0.011 * fits) << over.err;
+}
+
+// The faces of a thickened mesh decide what its formats hold, in the estimate itself: a level set
+// of a 1 mm wall over a 2 m ball makes more faces than binary STL counts.
+TEST(Estimate, AThickenedMeshIsCheckedAgainstItsFormats) {
+  Params p = preset("unit-ball");
+  p.resolution = 64;
+  p.print.size_mm = 2000;
+  p.print.min_thickness_mm = 1;
+  RunPlan plan;
+  plan.outputs = {MeshFormat::kStl};
+  const RunEstimate e = estimate_run(p, plan);
+  // 4 pi (1000 mm)^2 of surface at a voxel of 0.25 mm: about 16 faces a square millimetre.
+  EXPECT_GT(double(e.thickened_faces), 1e8);
+  EXPECT_EQ(e.final_faces, e.thickened_faces);
+  MemoryLimits unlimited;
+  EXPECT_NO_THROW(check_run(p, plan, e, unlimited));
+  p.print.min_thickness_mm = 0.01;  // 10,000 times the faces: past STL's count
+  const RunEstimate fine = estimate_at(p, plan, e, p.resolution);
+  EXPECT_GT(double(fine.final_faces), 4294967295.0);
+  const std::string what = refusal(p, plan, fine, unlimited);
+  EXPECT_NE(what.find("STL's 32-bit count"), std::string::npos) << what;
+  // Decimated to a million faces, it is written.
+  p.mesh.faces = 1000000;
+  EXPECT_NO_THROW(check_run(p, plan, estimate_at(p, plan, e, p.resolution), unlimited));
 }
 
 // Under an address-space limit (ulimit -v), a run completes or is refused before its work,

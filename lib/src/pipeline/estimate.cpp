@@ -1,13 +1,17 @@
 #include "qjulia/pipeline/estimate.h"
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <deque>
 #include <limits>
 #include <mutex>
 #include <string>
 #include <utility>
 
+#include "grid/grid_impl.h"
 #include "qjulia/base/error.h"
 #include "qjulia/field/classify.h"
 #include "qjulia/grid/sample.h"
@@ -37,7 +41,14 @@ constexpr double kVdbBrickBytes = 2400;    // a VDB leaf with its values and mas
 // 370 MB above the run without decimation (180 bytes a face), classic-julia at 256 asked for
 // 44,000 (one pass) 58 MB (132 bytes a face).
 constexpr double kDecimatePerFace = 180;
-constexpr double kThickenPerFace = 120;  // the level set of the thickened solid
+// Thickening re-meshes the whole surface on a level set whose voxel is a quarter of the
+// thickness: its faces are the mesh's faces times the square of the ratio of the two voxels
+// (classic-julia at 64 thickened by 0.4 to 0.0125, 5,860 to 5,446,164 faces, within 15% of
+// that), and its level sets and their mesh hold about 170 bytes a face of the result (155-172
+// measured from 1.4M faces on).
+constexpr double kThickenPerFace = 170;
+// OpenVDB's module, loaded to thicken or to write the grid: its libraries and their start.
+constexpr double kVdbModuleBytes = 38.0 * (1 << 20);
 constexpr double kPreviewBytes = 64.0 * (1 << 20);
 constexpr double kGltfPerFace = 30;     // tinygltf's buffers beside the mesh
 constexpr double kThreeMfPerFace = 60;  // lib3mf's mesh and the archive in memory
@@ -47,7 +58,30 @@ constexpr double kGlbLimit = 4294967295.0;
 
 struct Probe {
   std::uint64_t cells = 0, bricks = 0;
+  double extent = 0;  // the longest side of the crossing cells' box, model units
 };
+
+// The longest side of the box of the crossing cells of `grid` (the mesh's box, within a voxel
+// on each side), in model units.
+double surface_extent(const SampledGrid& grid) {
+  int lo[3] = {INT32_MAX, INT32_MAX, INT32_MAX}, hi[3] = {INT32_MIN, INT32_MIN, INT32_MIN};
+  for (const auto& b : grid.impl().bricks) {
+    if (!b->surface.any()) continue;
+    for (int w = 0; w < detail::kBrickCells / 64; ++w)
+      for (std::uint64_t bits = b->surface.w[w]; bits; bits &= bits - 1) {
+        const int c = w * 64 + __builtin_ctzll(bits);
+        const int g[3] = {b->at.x * detail::kBrick + c / 64, b->at.y * detail::kBrick + (c / 8) % 8,
+                          b->at.z * detail::kBrick + c % 8};
+        for (int a = 0; a < 3; ++a) {
+          lo[a] = std::min(lo[a], g[a]);
+          hi[a] = std::max(hi[a], g[a] + 1);
+        }
+      }
+  }
+  int side = 0;
+  for (int a = 0; a < 3; ++a) side = std::max(side, hi[a] - lo[a]);
+  return side * grid.voxel_size();
+}
 
 // The probes made so far in this process, by the set's parameters (all but the resolution) and
 // the probe's resolution: a refusal estimates several resolutions of one set, whose probes are
@@ -85,7 +119,7 @@ Probe probe(const Solid& solid, int resolution, const CancelToken* cancel) {
   SampleOptions so;
   so.cancel = cancel;
   const SampledGrid grid = sample(solid.at_resolution(resolution), so);
-  p = {grid.crossing_cells(), grid.bricks()};
+  p = {grid.crossing_cells(), grid.bricks(), surface_extent(grid)};
   cache.add(key, p);
   return p;
 }
@@ -157,6 +191,22 @@ FormatLimit format_limit(const Params& params, const RunPlan& plan, const RunEst
   return {};
 }
 
+// The faces of the thickened mesh: `faces` (the extracted mesh's at `resolution`) times the
+// square of the ratio of the grid's voxel to the level set's (a quarter of the thickness, in
+// model units: the mesh is scaled to --size first, its longest side the probe's surface extent).
+double thickened_faces(const Params& params, const RunEstimate& base, int resolution,
+                       double faces) {
+  if (!params.print.min_thickness_mm) return 0;
+  double longest = 0;
+  for (int a = 0; a < 3; ++a)
+    longest = std::max(longest, params.bounds.max[a] - params.bounds.min[a]);
+  const double extent = base.surface_extent > 0 ? base.surface_extent : longest;
+  const double scale = params.print.size_mm ? *params.print.size_mm / extent : 1.0;
+  const double level_set_voxel = *params.print.min_thickness_mm / 4 / scale;
+  const double ratio = longest / std::max(1, resolution) / level_set_voxel;
+  return faces * ratio * ratio;
+}
+
 }  // namespace
 
 RunEstimate estimate_at(const Params& params, const RunPlan& plan, const RunEstimate& base,
@@ -169,7 +219,10 @@ RunEstimate estimate_at(const Params& params, const RunPlan& plan, const RunEsti
                            : static_cast<double>(base.probe_cells) * std::pow(ratio, base.exponent);
   const double faces = kFacesPerCell * cells;
   const double vertices = 0.5 * faces;
-  double final_faces = faces;
+  // The stages after the extraction work on the thickened mesh where there is one.
+  const double thickened = thickened_faces(params, base, resolution, faces);
+  const double whole = params.print.min_thickness_mm ? thickened : faces;
+  double final_faces = whole;
   if (params.mesh.faces)
     final_faces = std::min(final_faces, static_cast<double>(*params.mesh.faces));
   const double final_vertices = 0.5 * final_faces;
@@ -199,8 +252,9 @@ RunEstimate estimate_at(const Params& params, const RunPlan& plan, const RunEsti
         kSampleProcess + (kSampleBrickBytes * sampled_bricks + kSampleCellBytes * cells) * share;
   }
   if (plan.keep_grid) peak += bricks * (kBrickBytes + kVdbBrickBytes);
-  if (params.mesh.faces || params.mesh.max_error) peak += kDecimatePerFace * faces;
-  if (params.print.min_thickness_mm) peak += kThickenPerFace * faces;
+  if (plan.keep_grid || params.print.min_thickness_mm) peak += kVdbModuleBytes;
+  if (params.mesh.faces || params.mesh.max_error) peak += kDecimatePerFace * whole;
+  if (params.print.min_thickness_mm) peak += kThickenPerFace * thickened;
   if (plan.preview) peak += kPreviewBytes;
   double largest = 0;
   for (MeshFormat f : plan.outputs) {
@@ -216,6 +270,7 @@ RunEstimate estimate_at(const Params& params, const RunPlan& plan, const RunEsti
   e.cells = clamp(cells);
   e.faces = clamp(faces);
   e.vertices = clamp(vertices);
+  e.thickened_faces = params.print.min_thickness_mm ? clamp(thickened) : 0;
   e.final_faces = clamp(final_faces);
   e.peak_bytes = clamp(peak);
   e.largest_output = clamp(largest);
@@ -236,6 +291,7 @@ RunEstimate estimate_run(const Solid& solid, const RunPlan& plan) {
     e.probe_resolution = n;
     e.probe_cells = p.cells;
     e.probe_bricks = p.bricks;
+    e.surface_extent = p.extent;
     e.exponent = 2;
     e.brick_exponent = 2;
   } else {
@@ -251,6 +307,7 @@ RunEstimate estimate_run(const Solid& solid, const RunPlan& plan) {
       r.probe_resolution = fine;
       r.probe_cells = p.cells;
       r.probe_bricks = p.bricks;
+      r.surface_extent = p.extent;
       // The power of the resolution from a count at half the resolution to one at the full.
       auto growth = [](std::uint64_t half, std::uint64_t full, double otherwise) {
         return half > 0 && full > 0 ? std::clamp(std::log2(double(full) / double(half)), 1.5, 3.0)
@@ -297,9 +354,62 @@ int largest_fitting_resolution(const Params& params, const RunPlan& plan, const 
   return lo;
 }
 
+namespace {
+
+// The smallest thickness (mm, three significant digits) at which the run of `e` fits in `bytes`
+// and its outputs, or 0 when none does: the thickened mesh shrinks as the square of the thickness.
+double smallest_fitting_thickness(const Params& params, const RunPlan& plan, const RunEstimate& e,
+                                  std::size_t bytes) {
+  auto fits = [&](double mm) {
+    Params q = params;
+    q.print.min_thickness_mm = mm;
+    const RunEstimate r = estimate_at(q, plan, e, e.resolution);
+    return r.peak_bytes <= bytes && format_limit(q, plan, r).name.empty();
+  };
+  const double given = *params.print.min_thickness_mm;
+  double lo = given, hi = given;
+  for (int i = 0; !fits(hi); ++i) {
+    if (i == 64) return 0;
+    lo = hi;
+    hi *= 2;
+  }
+  for (int i = 0; i < 60 && hi > lo * (1 + 1e-4); ++i) {
+    const double mid = std::sqrt(lo * hi);
+    (fits(mid) ? hi : lo) = mid;
+  }
+  // Rounded up to three significant digits, and up again until that fits.
+  const double unit = std::pow(10.0, std::floor(std::log10(hi)) - 2);
+  double mm = std::ceil(hi / unit - 1e-9) * unit;
+  while (!fits(mm)) mm += unit;
+  return mm;
+}
+
+std::string millimetres(double mm) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3g mm", mm);
+  return buf;
+}
+
+}  // namespace
+
 void check_run(const Params& params, const RunPlan& plan, const RunEstimate& e,
                const MemoryLimits& limits) {
   const std::size_t limit = limits.effective();
+  if (e.peak_bytes > limit && params.print.min_thickness_mm) {
+    // A thickening whose level set is too fine for the memory: what fits is a thicker one (the
+    // resolution hardly changes it: a coarser mesh has fewer faces, each resampled finer).
+    const double mm = smallest_fitting_thickness(params, plan, e, limit);
+    if (mm > 0)
+      throw TooLarge("a minimum thickness of " + millimetres(*params.print.min_thickness_mm) +
+                     " needs about " + format_bytes(static_cast<double>(e.peak_bytes)) +
+                     " (estimated: the thickening re-meshes the surface with a voxel of a "
+                     "quarter of it, into about " +
+                     rounded(static_cast<double>(e.thickened_faces)) + " faces) but " +
+                     limits.describe() +
+                     " is available; the smallest minimum thickness that "
+                     "fits is " +
+                     millimetres(mm) + " (--max-memory sets the limit)");
+  }
   if (e.peak_bytes > limit) {
     // The probes of another resolution differ (a quarter of it): the answer is checked by the
     // estimate of a run at that resolution itself, and lowered until that one fits too.

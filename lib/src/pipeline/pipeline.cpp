@@ -498,6 +498,7 @@ std::string stats_to_json(const RunStats& s, const Params& params) {
                    {"largest_output_bytes", e.largest_output},
                    {"memory_limit_bytes", s.memory_limit},
                    {"memory_limit", s.memory_limit_source}};
+  if (e.thickened_faces) j["estimate"]["thickened_faces"] = e.thickened_faces;
   if (s.clean) {
     const CleanReport& c = *s.clean;
     j["clean"] = {{"components_before", c.components_before},

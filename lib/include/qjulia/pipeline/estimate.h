@@ -32,18 +32,20 @@ struct RunPlan {
 
 /// The estimate of a run.
 struct RunEstimate {
-  int resolution = 0;              ///< of the run
-  int probe_resolution = 0;        ///< the finer of the two samplings it extrapolates from
-  std::uint64_t probe_cells = 0;   ///< crossing cells found there
-  std::uint64_t probe_bricks = 0;  ///< and bricks
-  double exponent = 2;             ///< crossing cells grow as resolution^exponent
-  double brick_exponent = 2;       ///< the sampled bricks as resolution^brick_exponent
-  std::uint64_t cells = 0;         ///< crossing cells expected at `resolution`
-  std::uint64_t faces = 0;         ///< faces of the extracted mesh
-  std::uint64_t vertices = 0;      ///< and vertices
-  std::uint64_t final_faces = 0;   ///< faces written (after decimation)
-  std::size_t peak_bytes = 0;      ///< peak resident memory of the run (of its largest rank)
-  std::size_t largest_output = 0;  ///< bytes of the largest output file
+  int resolution = 0;                 ///< of the run
+  int probe_resolution = 0;           ///< the finer of the two samplings it extrapolates from
+  std::uint64_t probe_cells = 0;      ///< crossing cells found there
+  std::uint64_t probe_bricks = 0;     ///< and bricks
+  double exponent = 2;                ///< crossing cells grow as resolution^exponent
+  double brick_exponent = 2;          ///< the sampled bricks as resolution^brick_exponent
+  double surface_extent = 0;          ///< longest side of the probe's surface box, model units
+  std::uint64_t cells = 0;            ///< crossing cells expected at `resolution`
+  std::uint64_t faces = 0;            ///< faces of the extracted mesh
+  std::uint64_t vertices = 0;         ///< and vertices
+  std::uint64_t thickened_faces = 0;  ///< faces after --min-thickness (0: no thickening)
+  std::uint64_t final_faces = 0;      ///< faces written (after thickening and decimation)
+  std::size_t peak_bytes = 0;         ///< peak resident memory of the run (of its largest rank)
+  std::size_t largest_output = 0;     ///< bytes of the largest output file
 };
 
 /// Samples `params` at two lower resolutions (at most 1/4 of the run's and 256, or 512 from 2048
