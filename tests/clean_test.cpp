@@ -68,6 +68,9 @@ TEST(Clean, DustRemovalRemovesOnlyComponentsBelowTheThreshold) {
   EXPECT_EQ(rep.components_after, 4u);
   EXPECT_EQ(rep.removed_components, 5u);
   EXPECT_EQ(rep.removed_faces, 5u * 320u);
+  // The largest speck removed: an inscribed polyhedron, a little below the sphere's volume.
+  EXPECT_GT(rep.largest_removed_volume, 0.9 * speck);
+  EXPECT_LT(rep.largest_removed_volume, speck);
   EXPECT_EQ(out.face_count(), 5120u + 3u * 320u);
   EXPECT_TRUE(fixtures::check(out).closed_manifold_oriented);
   // The volume left is the big sphere plus the balls (inscribed polyhedra: a bit less).

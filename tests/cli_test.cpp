@@ -229,6 +229,42 @@ TEST_F(Cli, AnEmptySolidWritesNothingAndAClippedOneSaysTheClipPlanesEmptiedIt) {
                   "no grid point of the box on the kept side of the clip planes is in it");
 }
 
+// A surface whose every component is dust is not an empty solid: the message says what removed
+// it, the largest component's volume against the threshold, and how to keep it (the unit ball at
+// resolution 3 has a voxel of 1 and a volume below 2 voxel^3).
+TEST_F(Cli, ASurfaceThatIsAllDustSaysSoAndNotThatTheSolidIsEmpty) {
+  // The run that keeps every component: its stats.
+  auto kept = [&](const std::string& args) {
+    const CliRun k = run(args + " --min-component 0 -o k.ply --stats k.json");
+    EXPECT_EQ(k.code, 0) << k.err;
+    const json stats = json::parse(read_text(work_ / "k.json"));
+    fs::remove(work_ / "k.ply");
+    fs::remove(work_ / "k.json");
+    return stats;
+  };
+  const std::string ball = "mesh --preset unit-ball --resolution 3";
+  const json one = kept(ball);
+  ASSERT_EQ(one["components"], 1);
+  char volume[32];
+  std::snprintf(volume, sizeof volume, "%.3g", one["volume"].get<double>());
+  const CliRun r = expect_rejected(
+      ball + " -o m.ply", std::string("every component of the surface is smaller than the dust "
+                                      "threshold (its one component has volume ") +
+                              volume +
+                              ", the threshold is 2 model units^3, 2 voxel^3 by default); "
+                              "--min-component 0 keeps every component");
+  EXPECT_EQ(r.err.find("the solid is empty"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("Hint"), std::string::npos) << r.err;
+  const std::string julia = "mesh --preset classic-julia --resolution 24";
+  const json all = kept(julia);
+  expect_rejected(julia + " --min-component 1000 -o m.ply",
+                  "the largest of its " + std::to_string(all["components"].get<int>()) +
+                      " components has volume ");
+  expect_rejected(julia + " --min-component 1000 -o m.ply",
+                  ", the threshold is 1e+03 model units^3, from --min-component); a smaller "
+                  "--min-component keeps them");
+}
+
 TEST_F(Cli, ADecimationThatStopsAboveItsTargetSaysSoOnStderr) {
   // Newton's cubic at 48 has a genus far too high for 500 faces: the guard stops first.
   const CliRun r = run("mesh --resolution 48 --faces 500 --quiet -o m.ply");

@@ -112,10 +112,17 @@ TEST(Pipeline, DustRemovalRemovesOnlyComponentsBelowTheThreshold) {
   EXPECT_NEAR(c.min_component_volume, 2 * voxel * voxel * voxel, 1e-12);
   for (const auto& comp : r.stats.measure.components)
     EXPECT_GE(std::abs(comp.volume), c.min_component_volume);
-  // With the threshold off, the same run keeps every component.
+  // With the threshold off, the same run keeps every component; the largest of those below the
+  // threshold is the one the report names.
   p.mesh.min_component = 0.0;
   const PipelineResult all = run_pipeline(p);
   EXPECT_EQ(all.stats.measure.components.size(), c.components_before);
+  double largest_dust = 0;
+  for (const auto& comp : all.stats.measure.components)
+    if (std::abs(comp.volume) < c.min_component_volume)
+      largest_dust = std::max(largest_dust, std::abs(comp.volume));
+  ASSERT_GT(c.removed_components, 0u);
+  EXPECT_NEAR(c.largest_removed_volume, largest_dust, 1e-9 * c.min_component_volume);
 }
 
 // A mesh's faces by their corners' positions, each starting at its least corner (the

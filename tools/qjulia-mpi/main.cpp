@@ -59,7 +59,7 @@ int run(int argc, char** argv, qjulia::mpi::MpiComm& comm) {
   DistributedRun run = run_pipeline_distributed(cmd->params, popts, comm);
   RunStats& stats = run.result.stats;
   if (comm.sum(stats.measure.faces) == 0)  // rank 0's measures are the whole mesh's
-    throw InvalidInput(empty_solid_message(cmd->params) + cli::kEmptySolidHint);
+    throw InvalidInput(cli::nothing_written(cmd->params, stats));
   ExportOptions eopts;
   eopts.params_json = cmd->params_json;
   eopts.unit = stats.unit;

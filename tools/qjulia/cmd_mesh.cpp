@@ -16,8 +16,7 @@ int cmd_mesh(const Tokens& tokens, const CancelToken& cancel) {
   popts.progress = bar.callback();
   PipelineResult result = run_pipeline(cmd->params, popts);
 
-  if (result.mesh.triangles.empty())
-    throw InvalidInput(empty_solid_message(cmd->params) + kEmptySolidHint);
+  if (result.mesh.triangles.empty()) throw InvalidInput(nothing_written(cmd->params, result.stats));
   ExportOptions eopts;
   eopts.params_json = cmd->params_json;
   eopts.unit = result.stats.unit;

@@ -81,6 +81,11 @@ const char* const kEmptySolidHint =
     "; nothing written. Hint: check the bailout, the iterations, the box and the clip planes "
     "(qjulia params shows them)";
 
+std::string nothing_written(const Params& params, const RunStats& stats) {
+  return empty_mesh_message(params, stats) +
+         (removed_as_dust(stats) ? std::string("; nothing written") : kEmptySolidHint);
+}
+
 std::unique_ptr<MeshCommand> parse_mesh_command(const std::vector<std::string>& tokens,
                                                 const CancelToken& cancel,
                                                 const std::string& program) {

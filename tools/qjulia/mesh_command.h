@@ -33,6 +33,10 @@ struct MeshCommand {
 /// What follows empty_solid_message() when `mesh` writes nothing because the solid is empty.
 extern const char* const kEmptySolidHint;
 
+/// Why `mesh` writes nothing when its run gave no faces: an empty solid (with the hint) or a
+/// surface whose every component was dust.
+std::string nothing_written(const Params& params, const RunStats& stats);
+
 /// Parses the arguments of `mesh`; null when --help was asked for (and printed). `program`
 /// names the command in the help ("qjulia mesh").
 /// @throws InvalidInput (exit 2).

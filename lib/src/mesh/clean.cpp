@@ -159,6 +159,7 @@ void remove_dust(TriMesh& mesh, double threshold, CleanReport& rep, const Cancel
     if (std::abs(volume[c]) < threshold) {
       keep[c] = 0;
       ++rep.removed_components;
+      rep.largest_removed_volume = std::max(rep.largest_removed_volume, std::abs(volume[c]));
     }
   rep.components_after = ncomp - rep.removed_components;
   if (rep.removed_components) {

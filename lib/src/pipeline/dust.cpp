@@ -41,11 +41,16 @@ std::vector<std::size_t> compact(std::size_t n, const Keep& keep, const Move& mo
   return start;
 }
 
-// Which components are dust.
-std::vector<char> dust_of(const MeshMeasure& m, double min_volume) {
+// Which components are dust; the largest of them in the report.
+std::vector<char> dust_of(const MeshMeasure& m, double min_volume, CleanReport& rep) {
   std::vector<char> drop(m.components.size(), 0);
-  for (std::size_t c = 0; c < m.components.size(); ++c)
-    if (std::abs(m.components[c].volume) < min_volume) drop[c] = 1;
+  for (std::size_t c = 0; c < m.components.size(); ++c) {
+    const double volume = std::abs(m.components[c].volume);
+    if (volume < min_volume) {
+      drop[c] = 1;
+      rep.largest_removed_volume = std::max(rep.largest_removed_volume, volume);
+    }
+  }
   return drop;
 }
 
@@ -120,7 +125,7 @@ CleanReport remove_dust(TriMesh& mesh, ExtractStats& stats, double min_volume) {
   CleanReport rep;
   rep.components_before = m.components.size();
   rep.min_component_volume = min_volume;
-  const std::vector<char> drop = dust_of(m, min_volume);
+  const std::vector<char> drop = dust_of(m, min_volume, rep);
   if (std::find(drop.begin(), drop.end(), 1) == drop.end()) {
     rep.components_after = rep.components_before;
     return rep;
@@ -175,7 +180,7 @@ CleanReport remove_dust_part(TriMesh& mesh, ExtractStats& stats, double min_volu
   // Rank 0 knows the components; every rank learns which go.
   std::string flags;
   if (comm.rank() == 0) {
-    const std::vector<char> drop = dust_of(stats.measure, min_volume);
+    const std::vector<char> drop = dust_of(stats.measure, min_volume, rep);
     flags.assign(drop.begin(), drop.end());
     rep.components_before = rep.components_after = stats.measure.components.size();
   }

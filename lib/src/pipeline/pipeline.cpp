@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
 #include <new>
 #include <nlohmann/json.hpp>
@@ -194,6 +195,32 @@ std::string empty_solid_message(const Params& params) {
              ? "the solid is empty with these parameters (no grid point of the box is in it)"
              : "the solid is empty with these parameters (no grid point of the box on the kept "
                "side of the clip planes is in it)";
+}
+
+bool removed_as_dust(const RunStats& stats) {
+  return stats.clean && stats.clean->components_before > 0 && stats.clean->components_after == 0;
+}
+
+std::string empty_mesh_message(const Params& params, const RunStats& stats) {
+  if (!removed_as_dust(stats)) return empty_solid_message(params);
+  const CleanReport& c = *stats.clean;
+  auto g = [](double x) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3g", x);
+    return std::string(buf);
+  };
+  const std::string n = std::to_string(c.components_before);
+  return "every component of the surface is smaller than the dust threshold (" +
+         (c.components_before == 1 ? std::string("its one component has volume ")
+                                   : "the largest of its " + n + " components has volume ") +
+         g(c.largest_removed_volume) + ", the threshold is " + g(c.min_component_volume) +
+         " model units^3" +
+         (params.mesh.min_component
+              ? std::string(", from --min-component); a smaller --min-component keeps them (0 "
+                            "keeps every component)")
+              : ", " + g(kDefaultDustVoxels) +
+                    " voxel^3 by default); --min-component 0 keeps every component, and a "
+                    "higher resolution makes the voxel smaller");
 }
 
 PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {

@@ -165,7 +165,8 @@ std::shared_ptr<const PreviewMesh> Api::preview_mesh(const Params& params,
   popts.outputs = {MeshFormat::kGlb};
   const auto begin = Clock::now();
   PipelineResult result = run_pipeline(params, popts);
-  if (result.mesh.triangles.empty()) throw InvalidInput(source + ": " + empty_solid(params));
+  if (result.mesh.triangles.empty())
+    throw InvalidInput(source + ": " + empty_solid(params, result.stats));
   auto mesh = std::make_shared<PreviewMesh>();
   mesh->mesh = std::move(result.mesh);
   mesh->stats = std::move(result.stats);

@@ -164,7 +164,7 @@ void ExportJobs::run(const std::shared_ptr<Job>& job, const Params& params) {
     popts.progress = report;
     popts.outputs = {job->format};  // a mesh too large for the format is refused before the work
     PipelineResult result = run_pipeline(params, popts);
-    if (result.mesh.triangles.empty()) throw InvalidInput(empty_solid(params));
+    if (result.mesh.triangles.empty()) throw InvalidInput(empty_solid(params, result.stats));
     faces = result.mesh.triangles.size();
     ExportOptions eopts;
     eopts.params_json = params_to_json(params);

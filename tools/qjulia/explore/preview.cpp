@@ -4,13 +4,16 @@
 
 namespace qjulia::explore {
 
-std::string empty_solid(const Params& params) {
-  return empty_solid_message(params) +
-         ". Hint: check the bailout, the iterations, the box and the clip planes";
+std::string empty_solid(const Params& params, const RunStats& stats) {
+  return empty_mesh_message(params, stats) +
+         (removed_as_dust(stats)
+              ? std::string()
+              : ". Hint: check the bailout, the iterations, the box and the clip planes");
 }
 
 bool says_empty_solid(const std::string& message) {
-  return message.find("the solid is empty") != std::string::npos;
+  return message.find("the solid is empty") != std::string::npos ||
+         message.find("smaller than the dust threshold") != std::string::npos;
 }
 
 void PreviewLane::run(const std::function<void(const CancelToken&)>& job) {

@@ -17,9 +17,10 @@
 
 namespace qjulia::explore {
 
-/// The message for a parameter set whose solid is empty (exit 2 of `qjulia mesh` says the
-/// same), shown by the page instead of a mesh; and whether a message is one.
-std::string empty_solid(const Params& params);
+/// The message for a run that gave no faces, its solid empty or every component dust (exit 2 of
+/// `qjulia mesh` says the same), shown by the page instead of a mesh; and whether a message is
+/// one.
+std::string empty_solid(const Params& params, const RunStats& stats);
 bool says_empty_solid(const std::string& message);
 
 /// Thrown by PreviewLane::run() for a job that a newer one or PreviewLane::stop() ended before

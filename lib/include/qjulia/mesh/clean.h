@@ -37,6 +37,7 @@ struct CleanReport {
   std::size_t degenerate_faces_removed = 0;  ///< repeated-index faces, fins, collapsed needles
   std::size_t degenerate_faces_flipped = 0;  ///< zero-area caps fixed by an edge flip
   double min_component_volume = 0.0;         ///< the threshold used
+  double largest_removed_volume = 0.0;       ///< |volume| of the largest component removed
 };
 
 /// Cleans `mesh`. Closed, manifold, outward input stays so.

@@ -98,6 +98,13 @@ std::string stats_to_json(const RunStats& stats, const Params& params);
 /// its part the clip planes keep, is in the solid), without a hint.
 std::string empty_solid_message(const Params& params);
 
+/// True when the run's dust removal took every component of a surface it did extract.
+bool removed_as_dust(const RunStats& stats);
+
+/// What to tell a user whose run gave no faces: that every component was below the dust
+/// threshold (with the largest one's volume and the threshold), or empty_solid_message().
+std::string empty_mesh_message(const Params& params, const RunStats& stats);
+
 /// The library version, "MAJOR.MINOR.PATCH".
 const char* version();
 
