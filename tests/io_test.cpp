@@ -315,6 +315,15 @@ TEST(Readers, OnlyRegularFilesAreReadAndAFifoDoesNotBlock) {
   EXPECT_TRUE(has(refusal([&] { qjulia::read_mesh(dir.file("zero.stl")); }), "not a regular file"));
   fs::create_directory(dir.file("dir.obj"));
   EXPECT_TRUE(has(refusal([&] { qjulia::read_mesh(dir.file("dir.obj")); }), "not a regular file"));
+  // The format comes from the extension: without one, or with an unknown one, the message says
+  // which (it read "unknown mesh format (no extension) (readable: ...)").
+  EXPECT_EQ(refusal([&] { qjulia::read_mesh("/dev/null"); }),
+            "/dev/null: the mesh format follows the file's extension, and it has none "
+            "(readable: .glb, .gltf, .obj, .ply, .stl, .3mf)");
+  EXPECT_EQ(refusal([&] { qjulia::read_mesh(dir.file("m.xyz")); }),
+            dir.file("m.xyz") +
+                ": unknown mesh format '.xyz' (readable: .glb, .gltf, .obj, .ply, "
+                ".stl, .3mf)");
 }
 
 TEST(Readers, FromMemoryTheyGiveWhatTheyGiveFromAFile) {

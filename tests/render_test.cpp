@@ -543,6 +543,13 @@ TEST_F(RenderCli, BadInputExitsWithCodeTwoAndWritesNothing) {
             2);
   EXPECT_EQ(run_cli("render " + path("a.png") + " -o " + path("x.png") + " --ambient 2", &out), 2);
   EXPECT_EQ(run_cli("render " + path("missing.ply") + " -o " + path("x.png"), &out), 2) << out;
+  EXPECT_NE(out.find("missing.ply': no such file"), std::string::npos) << out;
+  // A file that exists but is no mesh file is not called missing.
+  EXPECT_EQ(run_cli("render /dev/null -o " + path("x.png"), &out), 2) << out;
+  EXPECT_NE(out.find("'/dev/null': is not a regular file"), std::string::npos) << out;
+  std::filesystem::create_directory(path("d.ply"));
+  EXPECT_EQ(run_cli("render " + path("d.ply") + " -o " + path("x.png"), &out), 2) << out;
+  EXPECT_NE(out.find("d.ply': is a directory, not a mesh file"), std::string::npos) << out;
   EXPECT_FALSE(std::filesystem::exists(path("x.png")));
   EXPECT_EQ(run_cli("render --help", &out), 0);
   EXPECT_NE(out.find("--shading"), std::string::npos);

@@ -83,9 +83,16 @@ int cmd_render(const Tokens& tokens, const CancelToken& cancel) {
   if (auto c = args.get("columns"))
     columns_option = static_cast<int>(parse_int(*c, "--columns", {1, 1000}));
 
-  for (const std::string& input : args.positional)
-    if (!std::filesystem::is_regular_file(input))
+  for (const std::string& input : args.positional) {
+    std::error_code ec;
+    const auto kind = std::filesystem::status(input, ec).type();
+    if (kind == std::filesystem::file_type::not_found || ec)
       throw InvalidInput("input '" + input + "': no such file");
+    if (kind == std::filesystem::file_type::directory)
+      throw InvalidInput("input '" + input + "': is a directory, not a mesh file");
+    if (kind != std::filesystem::file_type::regular)
+      throw InvalidInput("input '" + input + "': is not a regular file (a device or a pipe)");
+  }
   OutputFiles files;  // -o is checked now: never an input, a directory or a device
   for (const std::string& input : args.positional) files.add_mesh_input(input);
   files.claim(*out);

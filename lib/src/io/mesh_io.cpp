@@ -113,8 +113,10 @@ MeshFormat input_format(const std::string& path) {
     return format_from_path(path);
   } catch (const InvalidInput&) {
     const std::string ext = lower_extension(path);
-    throw InvalidInput(path + ": unknown mesh format " +
-                       (ext.empty() ? std::string("(no extension)") : "'" + ext + "'") +
+    throw InvalidInput(path +
+                       (ext.empty() ? std::string(": the mesh format follows the file's "
+                                                  "extension, and it has none")
+                                    : ": unknown mesh format '" + ext + "'") +
                        " (readable: .glb, .gltf, .obj, .ply, .stl, .3mf)");
   }
 }
