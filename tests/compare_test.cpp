@@ -272,6 +272,33 @@ TEST(CompareCli, TwoPresetsGiveATableAndJson) {
   EXPECT_NE(text.str().find("\"b_name\": \"preset newton-escape\""), std::string::npos);
 }
 
+// --max-memory bounds the meshing of a parameter set and the reading of a mesh file, as in
+// `qjulia mesh`: what does not fit is refused before the work, naming the limit (the refusal of
+// a run too large for the memory offers --max-memory, which compare takes).
+TEST(CompareCli, MaxMemoryBoundsTheMeshingAndTheReading) {
+  const io_fixtures::TempDir scratch("compare_test_memory");
+  const auto& dir = scratch.path();
+  const std::string mesh = (dir / "u.ply").string();
+  // 24,000 faces: more than a mebibyte to read.
+  ASSERT_EQ(run_cli("mesh --preset classic-julia --resolution 64 --quiet -o " + mesh).exit_code, 0);
+  const auto meshing = run_cli(
+      "compare --preset classic-julia --preset newton-cubic "
+      "--resolution 512 --max-memory 16M --quiet");
+  EXPECT_EQ(meshing.exit_code, 2) << meshing.output;
+  EXPECT_NE(meshing.output.find("resolution 512 needs about "), std::string::npos)
+      << meshing.output;
+  EXPECT_NE(meshing.output.find("16.0 MiB (--max-memory) is available"), std::string::npos)
+      << meshing.output;
+  const auto reading = run_cli("compare " + mesh + " " + mesh + " --max-memory 1M --quiet");
+  EXPECT_EQ(reading.exit_code, 2) << reading.output;
+  EXPECT_NE(reading.output.find("1.00 MiB (--max-memory)"), std::string::npos) << reading.output;
+  const auto ok = run_cli("compare " + mesh +
+                          " --preset classic-julia --resolution 64 "
+                          "--max-memory 1G --samples 1000 --quiet");
+  EXPECT_EQ(ok.exit_code, 0) << ok.output;
+  EXPECT_EQ(run_cli("compare " + mesh + " " + mesh + " --max-memory 0").exit_code, 2);
+}
+
 TEST(ExperimentCli, CardioidDistanceShrinksAsIterationsGrow) {
   const io_fixtures::TempDir scratch("compare_test_cardioid");
   const auto& dir = scratch.path();

@@ -551,6 +551,15 @@ TEST_F(RenderCli, BadInputExitsWithCodeTwoAndWritesNothing) {
   EXPECT_EQ(run_cli("render " + path("d.ply") + " -o " + path("x.png"), &out), 2) << out;
   EXPECT_NE(out.find("d.ply': is a directory, not a mesh file"), std::string::npos) << out;
   EXPECT_FALSE(std::filesystem::exists(path("x.png")));
+  // The preview of `mesh` is a PNG too: another extension is refused before the work.
+  EXPECT_EQ(run_cli("mesh --preset unit-ball --resolution 16 --quiet -o " + path("m.ply") +
+                        " --preview " + path("m.jpg"),
+                    &out),
+            2);
+  EXPECT_NE(out.find("--preview: '" + path("m.jpg") + "' must end in .png"), std::string::npos)
+      << out;
+  EXPECT_FALSE(std::filesystem::exists(path("m.ply")));
+  EXPECT_FALSE(std::filesystem::exists(path("m.jpg")));
   EXPECT_EQ(run_cli("render --help", &out), 0);
   EXPECT_NE(out.find("--shading"), std::string::npos);
 }

@@ -37,6 +37,9 @@ options:
   --samples N       surface samples per surface: every vertex, then area-proportional random
                     points up to N, 0..100000000 (default 1000000)
   --threads T       worker threads of meshing and comparing, 1..1024 (default: all cores)
+  --max-memory SIZE the memory meshing a parameter set or reading a mesh file may use, e.g. 4G
+                    or 512M (K, M, G, T = 2^10..2^40 bytes; at least 1M); default: what the
+                    system has free
   --quiet           no progress bar
 )";
 
@@ -89,9 +92,11 @@ std::vector<Source> sources_in_order(const Tokens& tokens, const std::vector<Opt
 }
 
 // A mesh file, with any failure to read it reported as bad input naming the file.
-TriMesh load_mesh(const std::string& path) {
+TriMesh load_mesh(const std::string& path, std::optional<std::size_t> max_memory) {
   try {
-    return read_mesh(path);
+    ReadOptions ro;
+    ro.max_memory = max_memory;
+    return read_mesh(path, ro);
   } catch (const InvalidInput&) {
     throw;
   } catch (const std::exception& e) {
@@ -110,12 +115,13 @@ Params params_of(const Source& s, const ParsedArgs& args) {
 }
 
 TriMesh make_mesh(const Source& s, const std::optional<Params>& params, bool quiet,
-                  const CancelToken& cancel) {
-  if (!params) return load_mesh(s.value);
+                  std::optional<std::size_t> max_memory, const CancelToken& cancel) {
+  if (!params) return load_mesh(s.value, max_memory);
   ProgressBar bar(quiet);
   PipelineOptions opts;
   opts.progress = bar.callback();
   opts.cancel = &cancel;
+  opts.max_memory = max_memory;
   PipelineResult r = run_pipeline(*params, opts);
   bar.finish();
   return std::move(r.mesh);
@@ -174,6 +180,7 @@ int cmd_compare(const Tokens& tokens, const CancelToken& cancel) {
   specs.push_back({"colored", true});
   specs.push_back({"samples", true});
   specs.push_back({"threads", true});
+  specs.push_back({"max-memory", true});
   if (!find_spec(specs, "quiet")) specs.push_back({"quiet", false});
   if (!find_spec(specs, "help")) specs.push_back({"help", false});
   const ParsedArgs args = parse_args(tokens, specs, "compare");
@@ -190,6 +197,7 @@ int cmd_compare(const Tokens& tokens, const CancelToken& cancel) {
   if (auto s = args.get("samples"))
     opts.samples = static_cast<std::size_t>(parse_int(*s, "--samples", kSamplesRange));
   const ThreadLimit threads(args);
+  const std::optional<std::size_t> max_memory = max_memory_from_args(args);
   const bool quiet = args.has("quiet");
   const std::string json_path = args.get("json").value_or("");
   const std::string colored_path = args.get("colored").value_or("");
@@ -216,10 +224,10 @@ int cmd_compare(const Tokens& tokens, const CancelToken& cancel) {
     return std::chrono::duration<double>(Clock::now() - t).count();
   };
   const auto t0 = Clock::now();
-  const TriMesh a = make_mesh(sources[0], params[0], quiet, cancel);
+  const TriMesh a = make_mesh(sources[0], params[0], quiet, max_memory, cancel);
   const double time_a = since(t0);
   const auto t1 = Clock::now();
-  const TriMesh b = make_mesh(sources[1], params[1], quiet, cancel);
+  const TriMesh b = make_mesh(sources[1], params[1], quiet, max_memory, cancel);
   const double time_b = since(t1);
   const auto t2 = Clock::now();
   if (a.triangles.empty()) throw InvalidInput(sources[0].label() + ": the surface is empty");

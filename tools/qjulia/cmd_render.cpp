@@ -38,12 +38,6 @@ options:
   --threads T               worker threads, 1..1024 (all cores)
 )";
 
-std::string lower_extension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
 std::string format_view(const std::array<double, 3>& r) {
   char buf[96];
   std::snprintf(buf, sizeof buf, "%g,%g,%g", r[0], r[1], r[2]);
@@ -67,7 +61,7 @@ int cmd_render(const Tokens& tokens, const CancelToken& cancel) {
     throw InvalidInput("no input mesh given (usage: render MESH -o OUT.png)");
   const auto out = args.get("output");
   if (!out) throw InvalidInput("-o OUT.png is required");
-  if (lower_extension(*out) != ".png") throw InvalidInput("-o: '" + *out + "' must end in .png");
+  if (!is_png_path(*out)) throw InvalidInput("-o: '" + *out + "' must end in .png");
 
   const ThreadLimit threads(args);
   RenderOptions base = render_options_from_args(args);
@@ -102,7 +96,7 @@ int cmd_render(const Tokens& tokens, const CancelToken& cancel) {
   std::size_t faces = 0;
   for (const std::string& input : args.positional) {
     const std::string stem = std::filesystem::path(input).stem().string();
-    if (lower_extension(input) == ".png") {
+    if (is_png_path(input)) {
       cells.emplace_back(read_png(input), stem);
       continue;
     }

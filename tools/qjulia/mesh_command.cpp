@@ -114,6 +114,8 @@ std::unique_ptr<MeshCommand> parse_mesh_command(const std::vector<std::string>& 
   cmd->params_json = params_to_json(cmd->params);
   cmd->threads = std::make_unique<ThreadLimit>(args);
   cmd->preview = args.get("preview");
+  if (cmd->preview && !is_png_path(*cmd->preview))
+    throw InvalidInput("--preview: '" + *cmd->preview + "' must end in .png (the image is a PNG)");
   cmd->stats_path = args.get("stats");
   cmd->vdb = args.get("vdb");
   // Checked before the long run, so a bad value fails at once.
