@@ -265,6 +265,17 @@ TEST_F(Cli, ASurfaceThatIsAllDustSaysSoAndNotThatTheSolidIsEmpty) {
                   "--min-component keeps them");
 }
 
+// The side outputs are named for their formats, checked before the work: the grid an OpenVDB
+// file, the preview a PNG (--vdb grid.txt wrote a VDB file named .txt).
+TEST_F(Cli, MeshRefusesAGridOrPreviewNamedForAnotherFormat) {
+  expect_rejected("mesh --preset unit-ball --resolution 16 -o m.ply --vdb grid.txt",
+                  "--vdb: 'grid.txt' must end in .vdb");
+  expect_rejected("mesh --preset unit-ball --resolution 16 -o m.ply --preview p.jpg",
+                  "--preview: 'p.jpg' must end in .png");
+  EXPECT_EQ(run("mesh --preset unit-ball --resolution 16 -o m.ply --vdb g.VDB --quiet").code, 0);
+  EXPECT_TRUE(fs::exists(work_ / "g.VDB"));
+}
+
 TEST_F(Cli, ADecimationThatStopsAboveItsTargetSaysSoOnStderr) {
   // Newton's cubic at 48 has a genus far too high for 500 faces: the guard stops first.
   const CliRun r = run("mesh --resolution 48 --faces 500 --quiet -o m.ply");

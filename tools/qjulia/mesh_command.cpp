@@ -1,7 +1,9 @@
 #include "mesh_command.h"
 
+#include <cctype>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 
 #include "qjulia/base/error.h"
 #include "qjulia/base/memory.h"
@@ -114,8 +116,6 @@ std::unique_ptr<MeshCommand> parse_mesh_command(const std::vector<std::string>& 
   cmd->params_json = params_to_json(cmd->params);
   cmd->threads = std::make_unique<ThreadLimit>(args);
   cmd->preview = args.get("preview");
-  if (cmd->preview && !is_png_path(*cmd->preview))
-    throw InvalidInput("--preview: '" + *cmd->preview + "' must end in .png (the image is a PNG)");
   cmd->stats_path = args.get("stats");
   cmd->vdb = args.get("vdb");
   // Checked before the long run, so a bad value fails at once.
@@ -131,6 +131,15 @@ std::unique_ptr<MeshCommand> parse_mesh_command(const std::vector<std::string>& 
     if (args.get(name) == "-")
       throw InvalidInput(std::string("--") + name + " takes a file name ('-' is not standard " +
                          "output here: only --stats writes there)");
+  if (cmd->preview && !is_png_path(*cmd->preview))
+    throw InvalidInput("--preview: '" + *cmd->preview + "' must end in .png (the image is a PNG)");
+  auto extension = [](const std::string& path) {
+    std::string ext = std::filesystem::path(path).extension().string();
+    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    return ext;
+  };
+  if (cmd->vdb && extension(*cmd->vdb) != ".vdb")
+    throw InvalidInput("--vdb: '" + *cmd->vdb + "' must end in .vdb (the grid is an OpenVDB file)");
   for (const char* name : {"vdb", "preview", "stats"})
     if (auto f = args.get(name); f && *f != "-") written.claim(*f);
 
