@@ -381,6 +381,22 @@ TEST(ExperimentCli, Table1ShowsTheEscapeMethodFailingOnNewtonsCubic) {
   EXPECT_TRUE(std::filesystem::exists(dir / "table1.png"));  // the renderer is on main
 }
 
+// At a resolution too coarse for the reference (newton-cubic at 8: every component below the
+// dust threshold), table1 says why, exits 2 (it was an internal error, exit 1) and leaves no
+// folder it made.
+TEST(ExperimentCli, Table1AtAResolutionWithoutAReferenceSaysWhyAndLeavesNothing) {
+  const io_fixtures::TempDir scratch("experiment_test_coarse");
+  const auto out = scratch.path() / "new";
+  const auto r = run_cli("experiment table1 --resolution 8 --out " + out.string());
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("table1: the cut-off reference (newton-cubic at resolution 8) has no "
+                          "surface: every component of the surface is smaller than the dust "
+                          "threshold"),
+            std::string::npos)
+      << r.output;
+  EXPECT_FALSE(std::filesystem::exists(out));
+}
+
 TEST(ExperimentCli, UnknownExperimentExitsTwo) {
   const auto r = run_cli("experiment table9");
   EXPECT_EQ(r.exit_code, 2) << r.output;

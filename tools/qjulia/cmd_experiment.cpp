@@ -82,6 +82,7 @@ struct Run {
   TriMesh mesh;
   MeshMeasure measure;
   double seconds = 0;
+  std::string empty_because;  // why the mesh is empty, when it is
 };
 
 Run mesh_of(const Params& p, const Options& o) {
@@ -93,6 +94,7 @@ Run mesh_of(const Params& p, const Options& o) {
   run.seconds = seconds_since(t0);
   run.mesh = std::move(r.mesh);
   run.measure = measure(run.mesh);
+  if (run.mesh.triangles.empty()) run.empty_because = empty_mesh_message(p, r.stats);
   return run;
 }
 
@@ -158,7 +160,9 @@ Table1 mesh_table1(const Options& o) {
                o.resolution);
   t.cut = mesh_of(t.base, o);
   if (t.cut.mesh.triangles.empty())
-    throw std::runtime_error("table1: the cut-off reference surface is empty");
+    throw InvalidInput("table1: the cut-off reference (newton-cubic at resolution " +
+                       std::to_string(o.resolution) + ") has no surface: " + t.cut.empty_because +
+                       "; nothing written");
   for (int n : t.iterations)
     for (double r : t.bailouts) {
       Params p = t.base;
@@ -465,14 +469,20 @@ int cmd_experiment(const Tokens& tokens, const CancelToken& cancel) {
     std::sort(o.iterations.begin(), o.iterations.end());
     o.iterations.erase(std::unique(o.iterations.begin(), o.iterations.end()), o.iterations.end());
   }
+  if (name != "table1" && name != "cardioid")
+    throw InvalidInput("unknown experiment '" + name + "' (known: table1, cardioid)");
   o.out = args.get("out").value_or(".");
   std::error_code ec;
+  const bool existed = std::filesystem::exists(o.out, ec);
   std::filesystem::create_directories(o.out, ec);
   if (!std::filesystem::is_directory(o.out))
     throw InvalidInput("--out " + o.out + ": cannot create the directory");
-  if (name == "table1") return run_table1(o);
-  if (name == "cardioid") return run_cardioid(o);
-  throw InvalidInput("unknown experiment '" + name + "' (known: table1, cardioid)");
+  try {
+    return name == "table1" ? run_table1(o) : run_cardioid(o);
+  } catch (...) {
+    if (!existed) std::filesystem::remove(o.out, ec);  // made for this run, and still empty
+    throw;
+  }
 }
 
 }  // namespace qjulia::cli
