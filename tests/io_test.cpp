@@ -402,6 +402,67 @@ TEST(Gltf, BufferUrisMayOnlyNameRegularFilesInsideTheFolder) {
   }
 }
 
+// A glTF's nodes place its meshes (Blender writes each object's transform in its node): the
+// scene's hierarchy is applied, a mesh used by two nodes is read twice, a mirroring node keeps
+// the faces and normals outward, and a file without nodes is read as it is.
+TEST(Gltf, NodesPlaceTheirMeshesAndAMirrorKeepsTheFacesOutward) {
+  TempDir dir;
+  qjulia::write_mesh(dir.file("t.gltf"), tetrahedron());
+  const nlohmann::json doc = nlohmann::json::parse(read_bytes(dir.file("t.gltf")));
+  auto with = [&](const nlohmann::json& nodes, const nlohmann::json& scene_nodes) {
+    nlohmann::json d = doc;
+    d.erase("scenes");
+    d.erase("scene");
+    d.erase("nodes");
+    if (!nodes.is_null()) d["nodes"] = nodes;
+    if (!scene_nodes.is_null()) {
+      d["scenes"] = nlohmann::json::array({{{"nodes", scene_nodes}}});
+      d["scene"] = 0;
+    }
+    write_bytes(dir.file("n.gltf"), d.dump());  // its buffer is t.bin, beside it
+    return qjulia::read_mesh(dir.file("n.gltf"));
+  };
+  const double tetra = 1.0 / 6;
+  // Node 0 moves by (5, 0, 0) and scales by 2; its child, node 1, turns the mesh by 90 degrees
+  // about z; node 2 holds the mesh as it is.
+  const double h = std::sqrt(0.5);
+  const nlohmann::json nodes = {
+      {{"translation", {5, 0, 0}}, {"scale", {2, 2, 2}}, {"children", {1}}},
+      {{"rotation", {0, 0, h, h}}, {"mesh", 0}},
+      {{"mesh", 0}}};
+  const TriMesh placed = with(nodes, {0, 2});
+  ASSERT_EQ(placed.positions.size(), 8u);
+  ASSERT_EQ(placed.triangles.size(), 8u);
+  const std::array<std::array<float, 3>, 4> expected = {
+      {{5, 0, 0}, {5, 2, 0}, {3, 0, 0}, {5, 0, 2}}};  // (x, y, z) -> (5 - 2y, 2x, 2z)
+  for (int v = 0; v < 4; ++v)
+    for (int a = 0; a < 3; ++a)
+      EXPECT_NEAR(placed.positions[v][a], expected[v][a], 1e-6) << v << " " << a;
+  EXPECT_EQ(placed.positions[4], tetrahedron().positions[0]);
+  EXPECT_NEAR(fixtures::volume(placed), 8 * tetra + tetra, 1e-6);
+  // Without scenes, the nodes no other node holds are the roots: the same.
+  const TriMesh rootless = with(nodes, nullptr);
+  EXPECT_EQ(rootless.positions, placed.positions);
+  // A mirror (scale -1 along x): the faces keep facing out (positive volume), and so do the
+  // normals.
+  const TriMesh mirrored = with({{{"scale", {-1, 1, 1}}, {"mesh", 0}}}, {0});
+  EXPECT_NEAR(fixtures::volume(mirrored), tetra, 1e-6);
+  ASSERT_EQ(mirrored.normals.size(), 4u);
+  for (int v = 0; v < 4; ++v) {
+    double out = 0;
+    for (int a = 0; a < 3; ++a)
+      out += mirrored.normals[v][a] * (mirrored.positions[v][a] - (a == 0 ? -0.25 : 0.25));
+    EXPECT_GT(out, 0) << "vertex " << v;
+  }
+  // No nodes: the mesh as it is.
+  const TriMesh bare = with(nullptr, nullptr);
+  EXPECT_EQ(bare.positions, tetrahedron().positions);
+  EXPECT_EQ(bare.triangles, tetrahedron().triangles);
+  // A hierarchy that is not a forest, a node that names no mesh: refused.
+  EXPECT_TRUE(has(refusal([&] { with({{{"children", {0}}, {"mesh", 0}}}, {0}); }), "twice"));
+  EXPECT_FALSE(refusal([&] { with({{{"mesh", 7}}}, {0}); }).empty());
+}
+
 TEST(Gltf, AGlbWhoseBinChunkClaimsItsOwnHeaderIsRefused) {
   // tinygltf 2.7 accepts this chunk and reads 8 bytes past the end of the file.
   const std::string glb =

@@ -3,7 +3,9 @@
 #include <sys/stat.h>
 #include <tiny_gltf.h>
 
+#include <array>
 #include <climits>
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -525,11 +527,70 @@ void append_attribute(const tinygltf::Model& model, const tinygltf::Primitive& p
   out.insert(out.end(), values.begin(), values.end());
 }
 
-void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& prim, GltfMesh& g,
-                      ReadContext& ctx) {
+/// A node's placement: a column-major 4x4 matrix, as glTF writes them.
+using Matrix = std::array<double, 16>;
+
+constexpr Matrix kIdentity = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+
+Matrix multiply(const Matrix& a, const Matrix& b) {
+  Matrix r{};
+  for (int col = 0; col < 4; ++col)
+    for (int row = 0; row < 4; ++row)
+      for (int k = 0; k < 4; ++k) r[col * 4 + row] += a[k * 4 + row] * b[col * 4 + k];
+  return r;
+}
+
+/// A node's own transform: its matrix, or translation * rotation * scale.
+Matrix local_matrix(const tinygltf::Node& n, ReadContext& ctx) {
+  Matrix m = kIdentity;
+  if (n.matrix.size() == 16) {
+    std::copy(n.matrix.begin(), n.matrix.end(), m.begin());
+  } else {
+    if (!n.matrix.empty()) ctx.fail("a node's matrix does not have 16 numbers");
+    if (!n.translation.empty() && n.translation.size() != 3)
+      ctx.fail("a node's translation does not have 3 numbers");
+    if (!n.rotation.empty() && n.rotation.size() != 4)
+      ctx.fail("a node's rotation does not have 4 numbers");
+    if (!n.scale.empty() && n.scale.size() != 3) ctx.fail("a node's scale does not have 3 numbers");
+    const double x = n.rotation.empty() ? 0 : n.rotation[0],
+                 y = n.rotation.empty() ? 0 : n.rotation[1],
+                 z = n.rotation.empty() ? 0 : n.rotation[2],
+                 w = n.rotation.empty() ? 1 : n.rotation[3];
+    const double s[3] = {n.scale.empty() ? 1 : n.scale[0], n.scale.empty() ? 1 : n.scale[1],
+                         n.scale.empty() ? 1 : n.scale[2]};
+    // The rotation matrix of the unit quaternion (x, y, z, w), columns scaled.
+    const double r[9] = {1 - 2 * (y * y + z * z), 2 * (x * y + z * w),     2 * (x * z - y * w),
+                         2 * (x * y - z * w),     1 - 2 * (x * x + z * z), 2 * (y * z + x * w),
+                         2 * (x * z + y * w),     2 * (y * z - x * w),     1 - 2 * (x * x + y * y)};
+    for (int col = 0; col < 3; ++col)
+      for (int row = 0; row < 3; ++row) m[col * 4 + row] = r[col * 3 + row] * s[col];
+    for (int row = 0; row < 3; ++row) m[12 + row] = n.translation.empty() ? 0 : n.translation[row];
+  }
+  for (double v : m)
+    if (!std::isfinite(v)) ctx.fail("a node's transform is not finite");
+  return m;
+}
+
+void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& prim,
+                      const Matrix& place, GltfMesh& g, ReadContext& ctx) {
   const auto pos_it = prim.attributes.find("POSITION");
   if (pos_it == prim.attributes.end()) ctx.fail("a primitive has no POSITION");
-  const auto pos = read_vec3(model, pos_it->second, "POSITION", false, ctx);
+  auto pos = read_vec3(model, pos_it->second, "POSITION", false, ctx);
+  const bool moved = place != kIdentity;
+  // A mirroring placement turns the faces inside out: their winding is reversed to keep them
+  // facing out.
+  const double det = place[0] * (place[5] * place[10] - place[9] * place[6]) -
+                     place[4] * (place[1] * place[10] - place[9] * place[2]) +
+                     place[8] * (place[1] * place[6] - place[5] * place[2]);
+  const bool mirrored = det < 0;
+  if (moved)
+    for (auto& p : pos) {
+      std::array<float, 3> q;
+      for (int row = 0; row < 3; ++row)
+        q[row] = static_cast<float>(place[row] * p[0] + place[4 + row] * p[1] +
+                                    place[8 + row] * p[2] + place[12 + row]);
+      p = q;
+    }
   TriMesh& mesh = g.mesh;
   if (mesh.positions.size() + pos.size() >= UINT32_MAX) ctx.fail("too many vertices");
   const uint32_t base = uint32_t(mesh.positions.size());
@@ -550,11 +611,84 @@ void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
         ctx.fail("index " + std::to_string(idx[i + k]) + " is out of range (" +
                  std::to_string(pos.size()) + " vertices)");
       }
-    mesh.triangles.push_back({base + idx[i], base + idx[i + 1], base + idx[i + 2]});
+    if (mirrored)
+      mesh.triangles.push_back({base + idx[i], base + idx[i + 2], base + idx[i + 1]});
+    else
+      mesh.triangles.push_back({base + idx[i], base + idx[i + 1], base + idx[i + 2]});
   }
   mesh.positions.insert(mesh.positions.end(), pos.begin(), pos.end());
+  const std::size_t first_normal = g.normals.size();
   append_attribute(model, prim, "NORMAL", pos.size(), false, g.normals, g.all_normals, ctx);
+  if (moved && g.all_normals) {
+    // Normals go by the inverse transpose of the placement's linear part (its cofactors; the
+    // length is set again).
+    const Matrix& m = place;
+    const double c[9] = {
+        m[5] * m[10] - m[9] * m[6], m[8] * m[6] - m[4] * m[10], m[4] * m[9] - m[8] * m[5],
+        m[9] * m[2] - m[1] * m[10], m[0] * m[10] - m[8] * m[2], m[8] * m[1] - m[0] * m[9],
+        m[1] * m[6] - m[5] * m[2],  m[4] * m[2] - m[0] * m[6],  m[0] * m[5] - m[4] * m[1]};
+    for (std::size_t v = first_normal; v < g.normals.size(); ++v) {
+      const auto n = g.normals[v];
+      double q[3];
+      for (int row = 0; row < 3; ++row)
+        q[row] = c[row * 3] * n[0] + c[row * 3 + 1] * n[1] + c[row * 3 + 2] * n[2];
+      const double len = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+      const double k = len > 0 ? (det < 0 ? -1.0 : 1.0) / len : 0.0;
+      g.normals[v] = {float(q[0] * k), float(q[1] * k), float(q[2] * k)};
+    }
+  }
   append_attribute(model, prim, "COLOR_0", pos.size(), true, g.colors, g.all_colors, ctx);
+}
+
+/// The triangle primitives of mesh `index`, placed by `place`.
+void append_mesh(const tinygltf::Model& model, int index, const Matrix& place, GltfMesh& g,
+                 ReadContext& ctx) {
+  if (index < 0 || std::size_t(index) >= model.meshes.size())
+    ctx.fail("a node names mesh " + std::to_string(index) + ", which does not exist");
+  for (const auto& prim : model.meshes[std::size_t(index)].primitives)
+    if (prim.mode == -1 || prim.mode == TINYGLTF_MODE_TRIANGLES)
+      append_primitive(model, prim, place, g, ctx);
+}
+
+/// The scene's meshes where its nodes place them: the default scene (or the first), or, in a
+/// file without scenes, every node no other node holds. False when no node holds a mesh.
+bool append_scene(const tinygltf::Model& model, GltfMesh& g, ReadContext& ctx) {
+  const std::size_t nodes = model.nodes.size();
+  std::vector<int> roots;
+  if (!model.scenes.empty()) {
+    const int s = model.defaultScene >= 0 ? model.defaultScene : 0;
+    if (std::size_t(s) >= model.scenes.size()) ctx.fail("the default scene does not exist");
+    roots = model.scenes[std::size_t(s)].nodes;
+  } else {
+    std::vector<char> child(nodes, 0);
+    for (const auto& n : model.nodes)
+      for (int c : n.children)
+        if (c >= 0 && std::size_t(c) < nodes) child[std::size_t(c)] = 1;
+    for (std::size_t i = 0; i < nodes; ++i)
+      if (!child[i]) roots.push_back(int(i));
+  }
+  // Depth first; the hierarchy is a forest (glTF 2.0, 5.25), so a node met twice is an error
+  // (and a cycle cannot loop).
+  std::vector<char> seen(nodes, 0);
+  std::vector<std::pair<int, Matrix>> stack;
+  for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.emplace_back(*it, kIdentity);
+  bool any = false;
+  while (!stack.empty()) {
+    const auto [index, parent] = stack.back();
+    stack.pop_back();
+    if (index < 0 || std::size_t(index) >= nodes)
+      ctx.fail("node " + std::to_string(index) + " does not exist");
+    if (seen[std::size_t(index)]++)
+      ctx.fail("node " + std::to_string(index) + " appears twice in the node hierarchy");
+    const tinygltf::Node& n = model.nodes[std::size_t(index)];
+    const Matrix place = multiply(parent, local_matrix(n, ctx));
+    if (n.mesh >= 0) {
+      append_mesh(model, n.mesh, place, g, ctx);
+      any = true;
+    }
+    for (auto c = n.children.rbegin(); c != n.children.rend(); ++c) stack.emplace_back(*c, place);
+  }
+  return any;
 }
 
 }  // namespace
@@ -562,10 +696,13 @@ void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
 TriMesh read_gltf(std::string_view bytes, bool binary, ReadContext& ctx) {
   const tinygltf::Model model = load(bytes, binary, ctx);
   GltfMesh g;
-  for (const auto& gm : model.meshes)
-    for (const auto& prim : gm.primitives)
-      if (prim.mode == -1 || prim.mode == TINYGLTF_MODE_TRIANGLES)
-        append_primitive(model, prim, g, ctx);
+  // The meshes where the scene's nodes place them; a file whose nodes place none (meshes
+  // without nodes are valid glTF): every mesh as it is.
+  if (!append_scene(model, g, ctx)) {
+    g = GltfMesh();
+    for (std::size_t m = 0; m < model.meshes.size(); ++m)
+      append_mesh(model, int(m), kIdentity, g, ctx);
+  }
   if (g.mesh.triangles.empty()) ctx.fail("the file has no triangles");
   if (g.all_normals) g.mesh.normals = std::move(g.normals);
   if (g.all_colors) g.mesh.colors = std::move(g.colors);
