@@ -11,6 +11,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <utility>
@@ -135,6 +136,34 @@ TEST(Compare, MeasuresBothSurfaces) {
   EXPECT_NEAR(r.a.area, 6.0, 1e-6);
   EXPECT_EQ(r.b.faces, b.face_count());
   EXPECT_EQ(qjulia::genus_summary(r.a), "genus 0 x1");
+}
+
+// A file that splits its vertices at seams (glTF and PLY exporters give each face of a cube its
+// own four) is measured with them merged: closed, one component, Euler characteristic 2, as the
+// same cube with shared vertices; the distances are those of the shared cube.
+TEST(Compare, VerticesSplitAtSeamsAreMergedForTheMeasures) {
+  const TriMesh shared = cube();
+  TriMesh split;
+  for (const auto& t : shared.triangles) {
+    const auto base = static_cast<std::uint32_t>(split.positions.size());
+    for (std::uint32_t v : t) split.positions.push_back(shared.positions[v]);
+    split.triangles.push_back({base, base + 1, base + 2});
+  }
+  ASSERT_EQ(split.positions.size(), 36u);
+  const auto r = qjulia::compare(split, shared, small_options());
+  EXPECT_EQ(r.a_welded, 28u);
+  EXPECT_EQ(r.b_welded, 0u);
+  EXPECT_EQ(r.a.vertices, 8u);
+  EXPECT_EQ(r.a.faces, 12u);
+  EXPECT_TRUE(r.a.closed);
+  EXPECT_TRUE(r.a.manifold);
+  EXPECT_EQ(r.a.components.size(), 1u);
+  EXPECT_EQ(r.a.euler, 2);
+  EXPECT_NEAR(r.a.volume, 1.0, 1e-6);
+  EXPECT_LT(r.hausdorff, 1e-6);  // the same surface, to float rounding
+  const auto j = nlohmann::json::parse(qjulia::compare_to_json(r, "split", "shared"));
+  EXPECT_EQ(j["a_welded_vertices"], 28);
+  EXPECT_EQ(j["b_welded_vertices"], 0);
 }
 
 TEST(Compare, AnEmptyOrBrokenMeshIsInvalidInput) {

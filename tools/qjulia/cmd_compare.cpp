@@ -144,6 +144,8 @@ void print_table(const CompareResult& r, const std::string& na, const std::strin
   row("", "A", "B");
   row("source", na, nb);
   row("vertices", n(r.a.vertices), n(r.b.vertices));
+  // Files that split vertices at seams: the measures merge them (said, where it happened).
+  if (r.a_welded || r.b_welded) row("  merged at seams", n(r.a_welded), n(r.b_welded));
   row("faces", n(r.a.faces), n(r.b.faces));
   row("area", fmt(r.a.area), fmt(r.b.area));
   row("volume", fmt(r.a.volume), fmt(r.b.volume));

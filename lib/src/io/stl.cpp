@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include "base/geometry.h"
+#include "base/weld.h"
 #include "io/formats.h"
 #include "io/records.h"
 #include "io/text.h"
@@ -73,52 +74,19 @@ namespace {
 /// per triangle; fills mesh.positions and mesh.triangles.
 void weld_corners(const std::vector<std::array<float, 3>>& corners, TriMesh& mesh,
                   ReadContext& ctx) {
-  // Open addressing on the bit patterns: several times faster than std::unordered_map on
-  // millions of corners.
   const std::size_t n = corners.size();
-  std::size_t cap = 16;
-  while (cap < n + n / 2) cap <<= 1;
-  ctx.charge(cap, sizeof(uint32_t), "the welding table");
+  ctx.charge(weld_table_slots(n), sizeof(uint32_t), "the welding table");
   ctx.charge(n / 3, 12, "triangles");
-  ctx.charge(n / 5 + 16, 12, "vertex positions");
-  std::vector<uint32_t> table(cap, UINT32_MAX);
-  mesh.positions.clear();
-  mesh.positions.reserve(n / 5 + 16);
   mesh.triangles.resize(n / 3);
-  auto key_of = [](const std::array<float, 3>& p) {
-    std::array<uint32_t, 3> k;
-    for (int i = 0; i < 3; ++i) {
-      const float f = p[i] == 0.0f ? 0.0f : p[i];  // -0 and +0 are one position
-      std::memcpy(&k[i], &f, 4);
-    }
-    return k;
-  };
-  for (std::size_t c = 0; c < n; ++c) {
-    const auto k = key_of(corners[c]);
-    uint64_t h = (uint64_t(k[0]) * 0x9E3779B97F4A7C15ull) ^
-                 (uint64_t(k[1]) * 0xC2B2AE3D27D4EB4Full) ^
-                 (uint64_t(k[2]) * 0x165667B19E3779F9ull);
-    h ^= h >> 29;
-    std::size_t slot = h & (cap - 1);
-    uint32_t index;
-    for (;;) {
-      const uint32_t e = table[slot];
-      if (e == UINT32_MAX) {
-        index = uint32_t(mesh.positions.size());
-        std::array<float, 3> p;
-        std::memcpy(p.data(), k.data(), 12);
-        push_charged(mesh.positions, p, ctx, "vertex positions");
-        table[slot] = index;
-        break;
-      }
-      if (key_of(mesh.positions[e]) == k) {
-        index = e;
-        break;
-      }
-      slot = (slot + 1) & (cap - 1);
-    }
-    mesh.triangles[c / 3][c % 3] = index;
-  }
+  // The corners' numbers go straight into the triangles (three to a triangle).
+  static_assert(sizeof(std::array<uint32_t, 3>) == 3 * sizeof(uint32_t));
+  auto* index = reinterpret_cast<uint32_t*>(mesh.triangles.data());
+  const std::size_t distinct = number_positions(corners.data(), n, index);
+  ctx.charge(distinct, 12, "vertex positions");
+  mesh.positions.resize(distinct);
+  for (std::size_t c = n; c-- > 0;) mesh.positions[index[c]] = corners[c];  // the first wins
+  for (auto& p : mesh.positions)
+    for (float& x : p) x += 0.0f;  // -0 -> +0, as the positions were keyed
 }
 
 void read_binary_corners(std::string_view data, std::vector<std::array<float, 3>>& corners,

@@ -1,17 +1,15 @@
 #include "qjulia/mesh/clean.h"
 
-#include <tbb/parallel_sort.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstring>
-#include <numeric>
 #include <string>
 #include <unordered_map>
 
 #include "base/geometry.h"
 #include "base/mesh_check.h"
 #include "base/union_find.h"
+#include "base/weld.h"
 #include "mesh/stage_progress.h"
 #include "qjulia/base/error.h"
 #include "qjulia/base/validate.h"
@@ -31,31 +29,16 @@ constexpr uint32_t kCancelMask = (1u << 16) - 1;  // check the token every 65,53
 /// Returns the number of vertices merged away.
 std::size_t weld_exact(const TriMesh& mesh, std::vector<uint32_t>& remap) {
   const std::size_t nv = mesh.positions.size();
-  auto bits = [&](uint32_t i) {
-    std::array<uint32_t, 3> b;
-    for (int k = 0; k < 3; ++k) {
-      float x = mesh.positions[i][k] + 0.0f;  // -0 -> +0
-      std::memcpy(&b[k], &x, 4);
-    }
-    return b;
-  };
-  std::vector<uint32_t> order(nv);
-  std::iota(order.begin(), order.end(), 0u);
-  tbb::parallel_sort(order.begin(), order.end(), [&](uint32_t a, uint32_t b) {
-    auto ba = bits(a), bb = bits(b);
-    return ba != bb ? ba < bb : a < b;
-  });
   remap.resize(nv);
-  std::size_t merged = 0;
-  for (std::size_t i = 0; i < nv;) {
-    std::size_t j = i + 1;
-    const auto bi = bits(order[i]);
-    while (j < nv && bits(order[j]) == bi) ++j;
-    for (std::size_t k = i; k < j; ++k) remap[order[k]] = order[i];
-    merged += j - i - 1;
-    i = j;
+  const std::size_t distinct = detail::number_positions(mesh.positions.data(), nv, remap.data());
+  // The group's number to its first vertex (groups are numbered in the order of those).
+  std::vector<uint32_t> first;
+  first.reserve(distinct);
+  for (std::size_t v = 0; v < nv; ++v) {
+    if (remap[v] == first.size()) first.push_back(static_cast<uint32_t>(v));
+    remap[v] = first[remap[v]];
   }
-  return merged;
+  return nv - distinct;
 }
 
 /// The faces of zero area in float precision (|cross| <= 1e-6 longest edge^2).

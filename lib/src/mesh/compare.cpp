@@ -21,6 +21,7 @@
 #include "base/geometry.h"
 #include "base/hash.h"
 #include "base/mesh_json.h"
+#include "base/weld.h"
 #include "mesh/stage_progress.h"
 #include "qjulia/base/error.h"
 #include "qjulia/base/validate.h"
@@ -138,6 +139,25 @@ nlohmann::json directed_json(const DirectedDistance& d) {
   return {{"max", d.max}, {"mean", d.mean}, {"rms", d.rms}, {"samples", d.samples}};
 }
 
+// The measures of `m` with its vertices at one position merged (triangles that then repeat a
+// vertex have no area and go); `welded`: how many vertices were merged into another.
+MeshMeasure measure_welded(const TriMesh& m, const CancelToken* cancel, std::size_t& welded) {
+  std::vector<std::uint32_t> index(m.positions.size());
+  const std::size_t distinct =
+      detail::number_positions(m.positions.data(), m.positions.size(), index.data());
+  welded = m.positions.size() - distinct;
+  if (welded == 0) return measure(m, cancel);
+  TriMesh w;
+  w.positions.resize(distinct);
+  for (std::size_t v = m.positions.size(); v-- > 0;) w.positions[index[v]] = m.positions[v];
+  w.triangles.reserve(m.triangles.size());
+  for (const auto& t : m.triangles) {
+    const std::array<std::uint32_t, 3> u = {index[t[0]], index[t[1]], index[t[2]]};
+    if (u[0] != u[1] && u[1] != u[2] && u[0] != u[2]) w.triangles.push_back(u);
+  }
+  return measure(w, cancel);
+}
+
 }  // namespace
 
 CompareResult compare(const TriMesh& a, const TriMesh& b, const CompareOptions& opts) {
@@ -147,7 +167,8 @@ CompareResult compare(const TriMesh& a, const TriMesh& b, const CompareOptions& 
   std::unique_ptr<detail::TriangleBvh> bvh_a, bvh_b;
   Samples sa, sb;
   tbb::parallel_invoke(
-      [&] { result.a = measure(a, opts.cancel); }, [&] { result.b = measure(b, opts.cancel); },
+      [&] { result.a = measure_welded(a, opts.cancel, result.a_welded); },
+      [&] { result.b = measure_welded(b, opts.cancel, result.b_welded); },
       [&] { bvh_a = std::make_unique<detail::TriangleBvh>(a.positions, a.triangles); },
       [&] { bvh_b = std::make_unique<detail::TriangleBvh>(b.positions, b.triangles); },
       [&] { sa = make_samples(a, opts.samples, opts.seed); },
@@ -247,7 +268,9 @@ std::string compare_to_json(const CompareResult& r, const std::string& name_a,
                       {"b", measure_json(r.b)},
                       {"a_to_b", directed_json(r.a_to_b)},
                       {"b_to_a", directed_json(r.b_to_a)},
-                      {"hausdorff", r.hausdorff}};
+                      {"hausdorff", r.hausdorff},
+                      {"a_welded_vertices", r.a_welded},
+                      {"b_welded_vertices", r.b_welded}};
   return j.dump(2) + "\n";
 }
 

@@ -33,13 +33,17 @@ struct CompareOptions {
 
 /// The result of compare().
 struct CompareResult {
+  /// The measures of each surface with its vertices at one position merged (files that split
+  /// vertices at seams, as glTF and PLY exporters do, would show every seam as an open edge).
   MeshMeasure a, b;
+  std::size_t a_welded = 0, b_welded = 0;  ///< vertices merged into another for the measures
   DirectedDistance a_to_b, b_to_a;
   double hausdorff = 0;                  ///< max(a_to_b.max, b_to_a.max)
   std::vector<float> a_vertex_distance;  ///< per vertex of a, distance to b
 };
 
-/// Compares two meshes: measures both (measure()) and estimates the distances from every vertex
+/// Compares two meshes: measures both (measure(), vertices at the same position merged) and
+/// estimates the distances from every vertex
 /// and area-proportional random points of each surface (opts.samples in all) to the other (exact
 /// point-to-triangle distances through a BVH; multi-threaded; deterministic for a given seed).
 /// @throws InvalidInput when either has no faces, an index out of range or a non-finite
