@@ -6,6 +6,7 @@
 #include <tbb/task_arena.h>
 #include <zip.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <iostream>
@@ -521,6 +522,84 @@ TEST(ThreeMf, DecompressingToMoreThanAHundredTimesTheFileIsRefusedEvenWhenHeader
   EXPECT_TRUE(has(msg, "100 times its size")) << msg;
   understate_sizes(bomb, 1000);
   EXPECT_TRUE(has(refusal([&] { qjulia::read_mesh(bomb); }), "refused: the archive"));
+}
+
+// What a 3MF prints is its build: each item's object placed by the item's transform, a
+// components object by its components' transforms too (slicers write both), a mirror with its
+// faces kept outward; an object the build does not name is not read.
+TEST(ThreeMf, TheBuildPlacesItsObjects) {
+  TempDir dir;
+  const std::string tetra =
+      "<mesh><vertices><vertex x=\"0\" y=\"0\" z=\"0\"/><vertex x=\"1\" y=\"0\" z=\"0\"/>"
+      "<vertex x=\"0\" y=\"1\" z=\"0\"/><vertex x=\"0\" y=\"0\" z=\"1\"/></vertices>"
+      "<triangles><triangle v1=\"0\" v2=\"2\" v3=\"1\"/><triangle v1=\"0\" v2=\"1\" "
+      "v3=\"3\"/><triangle v1=\"0\" v2=\"3\" v3=\"2\"/><triangle v1=\"1\" v2=\"2\" "
+      "v3=\"3\"/></triangles></mesh>";
+  // Object 1 a tetrahedron; object 2 two copies of it, one moved by (0, 10, 0) and mirrored in
+  // x; object 3 (not built) a tetrahedron. The build: object 1 scaled by 2 and moved by
+  // (5, 0, 0), object 2 as it is. 3MF's transform is "m00 m01 m02 m10 m11 m12 m20 m21 m22 m30
+  // m31 m32", applied as (x, y, z, 1) times that 4 x 3 matrix.
+  const std::string model =
+      "<?xml version=\"1.0\" encoding=\"utf-8\"?><model unit=\"millimeter\" "
+      "xmlns=\"http://schemas.microsoft.com/3dmanufacturing/core/2015/02\"><resources>"
+      "<object id=\"1\" type=\"model\">" +
+      tetra +
+      "</object>"
+      "<object id=\"2\" type=\"model\"><components><component objectid=\"1\"/>"
+      "<component objectid=\"1\" transform=\"-1 0 0 0 1 0 0 0 1 0 10 0\"/></components></object>"
+      "<object id=\"3\" type=\"model\">" +
+      tetra +
+      "</object>"
+      "</resources><build><item objectid=\"1\" transform=\"2 0 0 0 2 0 0 0 2 5 0 0\"/>"
+      "<item objectid=\"2\"/></build></model>";
+  const TriMesh m = qjulia::read_mesh(threemf_with_model(dir, model));
+  ASSERT_EQ(m.positions.size(), 12u);
+  ASSERT_EQ(m.triangles.size(), 12u);
+  const std::array<float, 3> moved[4] = {{5, 0, 0}, {7, 0, 0}, {5, 2, 0}, {5, 0, 2}};
+  const std::array<float, 3> mirrored[4] = {{0, 10, 0}, {-1, 10, 0}, {0, 11, 0}, {0, 10, 1}};
+  for (int v = 0; v < 4; ++v) {
+    EXPECT_EQ(m.positions[v], moved[v]) << v;
+    EXPECT_EQ(m.positions[4 + v], tetrahedron().positions[v]) << v;
+    EXPECT_EQ(m.positions[8 + v], mirrored[v]) << v;
+  }
+  // Every copy faces out: 8/6 + 1/6 + 1/6.
+  EXPECT_NEAR(fixtures::volume(m), 10.0 / 6, 1e-6);
+}
+
+// lib3mf walks every path down nested components when it reads a file: 40 objects that each
+// place the one below twice (2^39 copies of one tetrahedron, in 4 KB) kept it busy for ever.
+// Refused before lib3mf sees the file, as are components in a cycle; a few levels are read.
+TEST(ThreeMf, ComponentsNestedIntoMillionsOfCopiesOrACycleAreRefusedAtOnce) {
+  TempDir dir;
+  auto model = [](int levels, bool cycle) {
+    std::string s =
+        "<?xml version=\"1.0\" encoding=\"utf-8\"?><model unit=\"millimeter\" "
+        "xmlns=\"http://schemas.microsoft.com/3dmanufacturing/core/2015/02\"><resources>"
+        "<object id=\"1\" type=\"model\"><mesh><vertices><vertex x=\"0\" y=\"0\" z=\"0\"/>"
+        "<vertex x=\"1\" y=\"0\" z=\"0\"/><vertex x=\"0\" y=\"1\" z=\"0\"/>"
+        "<vertex x=\"0\" y=\"0\" z=\"1\"/></vertices><triangles><triangle v1=\"0\" "
+        "v2=\"2\" v3=\"1\"/><triangle v1=\"0\" v2=\"1\" v3=\"3\"/><triangle v1=\"0\" "
+        "v2=\"3\" v3=\"2\"/><triangle v1=\"1\" v2=\"2\" v3=\"3\"/></triangles></mesh>"
+        "</object>";
+    for (int i = 2; i <= levels; ++i) {
+      const std::string below = std::to_string(cycle && i == levels ? levels : i - 1);
+      s += "<object id=\"" + std::to_string(i) + "\" type=\"model\"><components>" +
+           "<component objectid=\"" + below + "\"/><component objectid=\"" + std::to_string(i - 1) +
+           "\" transform=\"1 0 0 0 1 0 0 0 1 2 0 0\"/>" + "</components></object>";
+    }
+    return s + "</resources><build><item objectid=\"" + std::to_string(levels) +
+           "\"/></build></model>";
+  };
+  const auto started = std::chrono::steady_clock::now();
+  EXPECT_TRUE(has(refusal([&] { qjulia::read_mesh(threemf_with_model(dir, model(40, false))); }),
+                  "nests components into more than 1000000 copies of its meshes"));
+  EXPECT_TRUE(has(refusal([&] { qjulia::read_mesh(threemf_with_model(dir, model(5, true))); }),
+                  "components that place each other in a cycle"));
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(), 10);
+  // Four levels: 8 copies, side by side.
+  const TriMesh eight = qjulia::read_mesh(threemf_with_model(dir, model(4, false)));
+  EXPECT_EQ(eight.triangles.size(), 32u);
+  EXPECT_NEAR(fixtures::volume(eight), 8.0 / 6, 1e-6);
 }
 
 TEST(ThreeMf, WhitespaceThatOverflowsLib3mfsXmlReaderIsRefused) {

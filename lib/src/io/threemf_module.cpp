@@ -9,8 +9,11 @@
 #include <zip.h>
 
 #include <algorithm>
+#include <cctype>
+#include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <map>
 #include <memory>
 #include <new>
 
@@ -197,6 +200,10 @@ struct ZipCloser {
   void operator()(zip_t* z) const { zip_discard(z); }
 };
 
+/// The most meshes a model may place (components nest: a few objects can place exponentially
+/// many).
+constexpr std::size_t kMostPlaced = 1000000;
+
 /// The whitespace of one decompressed part, fed in blocks (kMaxWhitespaceRun above).
 class WhitespaceScan {
  public:
@@ -225,6 +232,123 @@ class WhitespaceScan {
   std::size_t before_equals_ = 0;
 };
 
+/// The components of a model part: which objects each object places, fed in blocks. lib3mf
+/// walks every path down nested components when it reads a file (once per path, not once per
+/// object), so components that each place the one below twice, 40 deep, keep it busy for ever;
+/// a part whose objects unfold into more than kMostPlaced meshes is refused before it sees it.
+class ComponentScan {
+ public:
+  void feed(const char* p, std::size_t n) {
+    for (std::size_t i = 0; i < n; ++i) {
+      const char c = p[i];
+      if (!in_tag_) {
+        if (c == '<') {
+          in_tag_ = true;
+          tag_.clear();
+        }
+        continue;
+      }
+      if (c == '>') {
+        in_tag_ = false;
+        take(tag_);
+      } else if (tag_.size() < kLongestTag) {
+        tag_ += c;
+      }
+    }
+  }
+
+  /// Why the part is refused, or "".
+  std::string verdict() const {
+    // Meshes under each object, saturated at kMostPlaced + 1; depth first without recursion.
+    std::map<long long, std::size_t> count;
+    std::map<long long, int> state;  // 1: on the path, 2: counted
+    for (const auto& [root, unused] : parts_) {
+      if (state[root] == 2) continue;
+      std::vector<std::pair<long long, std::size_t>> stack = {{root, 0}};
+      state[root] = 1;
+      while (!stack.empty()) {
+        auto& [object, next] = stack.back();
+        const auto it = parts_.find(object);
+        if (it != parts_.end() && next < it->second.size()) {
+          const long long child = it->second[next++];
+          if (state[child] == 1) return "has components that place each other in a cycle";
+          if (state[child] == 0) {
+            state[child] = 1;
+            stack.emplace_back(child, 0);
+          }
+          continue;
+        }
+        std::size_t total = it == parts_.end() || it->second.empty() ? 1 : 0;
+        if (it != parts_.end())
+          for (long long child : it->second) {
+            const auto c = count.find(child);
+            total = std::min(kMostPlaced + 1, total + (c == count.end() ? 1 : c->second));
+          }
+        count[object] = total;
+        state[object] = 2;
+        stack.pop_back();
+      }
+      if (count[root] > kMostPlaced)
+        return "nests components into more than " + std::to_string(kMostPlaced) +
+               " copies of its meshes";
+    }
+    return "";
+  }
+
+ private:
+  static constexpr std::size_t kLongestTag = 4096;
+
+  // The value of attribute `name` in the tag's text, or -1.
+  static long long attribute(const std::string& tag, const char* name) {
+    const std::size_t len = std::strlen(name);
+    for (std::size_t at = tag.find(name); at != std::string::npos; at = tag.find(name, at + 1)) {
+      if (at == 0 || !std::isspace(static_cast<unsigned char>(tag[at - 1]))) continue;
+      std::size_t i = at + len;
+      while (i < tag.size() && std::isspace(static_cast<unsigned char>(tag[i]))) ++i;
+      if (i >= tag.size() || tag[i] != '=') continue;
+      ++i;
+      while (i < tag.size() && std::isspace(static_cast<unsigned char>(tag[i]))) ++i;
+      if (i >= tag.size() || (tag[i] != '"' && tag[i] != '\'')) continue;
+      return std::atoll(tag.c_str() + i + 1);
+    }
+    return -1;
+  }
+
+  // The tag's name without its namespace prefix ("m:object" -> "object").
+  static std::string name_of(const std::string& tag) {
+    std::size_t end = 0;
+    while (end < tag.size() && !std::isspace(static_cast<unsigned char>(tag[end])) &&
+           tag[end] != '/')
+      ++end;
+    if (end == 0 && !tag.empty() && tag[0] == '/') {
+      end = 1;
+      while (end < tag.size() && !std::isspace(static_cast<unsigned char>(tag[end]))) ++end;
+    }
+    std::string name = tag.substr(0, end);
+    const std::size_t colon = name.find(':');
+    if (colon != std::string::npos) name = (name[0] == '/' ? "/" : "") + name.substr(colon + 1);
+    return name;
+  }
+
+  void take(const std::string& tag) {
+    const std::string name = name_of(tag);
+    if (name == "object") {
+      object_ = attribute(tag, "id");
+      parts_[object_];
+      if (!tag.empty() && tag.back() == '/') object_ = -1;
+    } else if (name == "/object") {
+      object_ = -1;
+    } else if (name == "component" && object_ >= 0) {
+      parts_[object_].push_back(attribute(tag, "objectid"));
+    }
+  }
+
+  bool in_tag_ = false;
+  std::string tag_;
+  long long object_ = -1;
+  std::map<long long, std::vector<long long>> parts_;  // object -> the objects it places
+};
+
 std::string scan(std::string_view bytes, std::size_t& total) {
   try {
     const std::size_t cap = std::max(kMaxRatio * bytes.size(), kMinDecompressed);
@@ -247,6 +371,7 @@ std::string scan(std::string_view bytes, std::size_t& total) {
       zip_file_t* f = zip_fopen_index(archive.get(), zip_uint64_t(i), 0);
       if (!f) continue;  // lib3mf will report what it cannot open
       WhitespaceScan whitespace;
+      ComponentScan components;
       zip_int64_t n;
       while ((n = zip_fread(f, buffer.data(), buffer.size())) > 0) {
         total += std::size_t(n);
@@ -263,8 +388,14 @@ std::string scan(std::string_view bytes, std::size_t& total) {
           return "refused: the part '" + std::string(name ? name : "?") + "' " + why +
                  " (lib3mf, which reads 3MF files, overflows its memory on such XML)";
         }
+        components.feed(buffer.data(), std::size_t(n));
       }
       zip_fclose(f);
+      if (const std::string why = components.verdict(); !why.empty()) {
+        const char* name = zip_get_name(archive.get(), zip_uint64_t(i), 0);
+        return "refused: the part '" + std::string(name ? name : "?") + "' " + why +
+               " (lib3mf, which reads 3MF files, walks every one of them)";
+      }
     }
     return "";
   } catch (...) {
@@ -316,10 +447,99 @@ std::string each_object(void* model, F&& f) {
   return "";
 }
 
+/// An affine placement, p' = m (p, 1): three rows of four (lib3mf's MODELTRANSFORM layout).
+using Placement = std::array<double, 12>;
+constexpr Placement kUnmoved = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
+
+Placement placement_of(const MODELTRANSFORM& t) {
+  Placement m;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 4; ++c) m[r * 4 + c] = t.m_fFields[r][c];
+  return m;
+}
+
+/// `outer` after `inner`: p -> outer(inner(p)).
+Placement compose(const Placement& outer, const Placement& inner) {
+  Placement m{};
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 4; ++c) {
+      double v = c == 3 ? outer[r * 4 + 3] : 0.0;
+      for (int k = 0; k < 3; ++k) v += outer[r * 4 + k] * inner[k * 4 + c];
+      m[r * 4 + c] = v;
+    }
+  }
+  return m;
+}
+
+/// Calls f(mesh object, placement) for each mesh the object `object` holds placed by `place`:
+/// itself, or a components object's components (each by its own transform, recursively).
+template <class F>
+std::string each_part(PLib3MFBase* object, const Placement& place, int depth, F&& f) {
+  if (depth > 64) return "components nested more than 64 deep";
+  BOOL is_mesh = false, is_components = false;
+  if (lib3mf_object_ismeshobject(object, &is_mesh) != LIB3MF_OK ||
+      lib3mf_object_iscomponentsobject(object, &is_components) != LIB3MF_OK)
+    return last_error(object);
+  if (is_mesh) return f(object, place);
+  if (!is_components) return "";
+  DWORD count = 0;
+  if (lib3mf_componentsobject_getcomponentcount(object, &count) != LIB3MF_OK)
+    return last_error(object);
+  for (DWORD i = 0; i < count; ++i) {
+    Handle component, child;
+    if (lib3mf_componentsobject_getcomponent(object, i, component.out()) != LIB3MF_OK ||
+        lib3mf_component_getobjectresource(component.get(), child.out()) != LIB3MF_OK)
+      return last_error(object);
+    BOOL moved = false;
+    MODELTRANSFORM t;
+    if (lib3mf_component_hastransform(component.get(), &moved) != LIB3MF_OK ||
+        (moved && lib3mf_component_gettransform(component.get(), &t) != LIB3MF_OK))
+      return last_error(component.get());
+    const std::string why =
+        each_part(child.get(), moved ? compose(place, placement_of(t)) : place, depth + 1, f);
+    if (!why.empty()) return why;
+  }
+  return "";
+}
+
+/// Calls f(mesh object, placement) for each mesh the build places (3MF 1.x, 3.4.1: what is
+/// printed is the build items, each object by its transform); a model whose build places no
+/// mesh: every mesh object as it is. At most kMostPlaced meshes (components nest, so a small
+/// file could place exponentially many).
+template <class F>
+std::string each_placed(void* model_handle, F&& f) {
+  auto* model = static_cast<PLib3MFBase*>(model_handle);
+  Handle items;
+  if (lib3mf_model_getbuilditems(model, items.out()) != LIB3MF_OK) return last_error(model);
+  std::size_t placed = 0;
+  BOOL has_next = false;
+  while (lib3mf_builditemiterator_movenext(items.get(), &has_next) == LIB3MF_OK && has_next) {
+    Handle item, object;
+    if (lib3mf_builditemiterator_getcurrent(items.get(), item.out()) != LIB3MF_OK ||
+        lib3mf_builditem_getobjectresource(item.get(), object.out()) != LIB3MF_OK)
+      return last_error(items.get());
+    BOOL moved = false;
+    MODELTRANSFORM t;
+    if (lib3mf_builditem_hasobjecttransform(item.get(), &moved) != LIB3MF_OK ||
+        (moved && lib3mf_builditem_getobjecttransform(item.get(), &t) != LIB3MF_OK))
+      return last_error(item.get());
+    const std::string why =
+        each_part(object.get(), moved ? placement_of(t) : kUnmoved, 0,
+                  [&](PLib3MFBase* mesh, const Placement& place) {
+                    if (++placed > kMostPlaced)
+                      return std::string("the build places more than a million meshes");
+                    return f(mesh, place);
+                  });
+    if (!why.empty()) return why;
+  }
+  if (placed) return "";
+  return each_object(model, [&](PLib3MFBase* object) { return f(object, kUnmoved); });
+}
+
 std::string sizes(void* model, std::vector<std::array<std::size_t, 2>>& out) {
   try {
     out.clear();
-    return each_object(model, [&](PLib3MFBase* object) -> std::string {
+    return each_placed(model, [&](PLib3MFBase* object, const Placement&) -> std::string {
       DWORD nv = 0, nf = 0;
       if (lib3mf_meshobject_getvertexcount(object, &nv) != LIB3MF_OK ||
           lib3mf_meshobject_gettrianglecount(object, &nf) != LIB3MF_OK)
@@ -336,7 +556,7 @@ std::string mesh(void* model, std::array<float, 3>* positions,
                  std::array<std::uint32_t, 3>* triangles) {
   try {
     std::size_t base_v = 0, base_f = 0;
-    return each_object(model, [&](PLib3MFBase* object) -> std::string {
+    return each_placed(model, [&](PLib3MFBase* object, const Placement& m) -> std::string {
       DWORD nv = 0, nf = 0, got = 0;
       if (lib3mf_meshobject_getvertexcount(object, &nv) != LIB3MF_OK ||
           lib3mf_meshobject_gettrianglecount(object, &nf) != LIB3MF_OK)
@@ -354,6 +574,20 @@ std::string mesh(void* model, std::array<float, 3>* positions,
           if (i >= nv) return "a triangle index is out of range";
           i += std::uint32_t(base_v);
         }
+      if (m != kUnmoved) {
+        for (std::size_t v = base_v; v < base_v + nv; ++v) {
+          const auto p = positions[v];
+          for (int r = 0; r < 3; ++r)
+            positions[v][r] = static_cast<float>(m[r * 4] * p[0] + m[r * 4 + 1] * p[1] +
+                                                 m[r * 4 + 2] * p[2] + m[r * 4 + 3]);
+        }
+        // A mirroring placement turns the faces inside out: their winding is reversed.
+        const double det = m[0] * (m[5] * m[10] - m[6] * m[9]) -
+                           m[1] * (m[4] * m[10] - m[6] * m[8]) + m[2] * (m[4] * m[9] - m[5] * m[8]);
+        if (det < 0)
+          for (std::size_t f = base_f; f < base_f + nf; ++f)
+            std::swap(triangles[f][1], triangles[f][2]);
+      }
       base_v += nv;
       base_f += nf;
       return "";
