@@ -471,6 +471,19 @@ Placement compose(const Placement& outer, const Placement& inner) {
   return m;
 }
 
+/// `outer` after the transform `handle` carries, if any (`has` and `get`: lib3mf's pair of
+/// functions for a build item or a component), into `out`; "" or what failed.
+template <class Has, class Get>
+std::string placed_by(PLib3MFBase* handle, Has has, Get get, const Placement& outer,
+                      Placement& out) {
+  BOOL moved = false;
+  MODELTRANSFORM t;
+  if (has(handle, &moved) != LIB3MF_OK || (moved && get(handle, &t) != LIB3MF_OK))
+    return last_error(handle);
+  out = moved ? compose(outer, placement_of(t)) : outer;
+  return "";
+}
+
 /// Calls f(mesh object, placement) for each mesh the object `object` holds placed by `place`:
 /// itself, or a components object's components (each by its own transform, recursively).
 template <class F>
@@ -490,13 +503,10 @@ std::string each_part(PLib3MFBase* object, const Placement& place, int depth, F&
     if (lib3mf_componentsobject_getcomponent(object, i, component.out()) != LIB3MF_OK ||
         lib3mf_component_getobjectresource(component.get(), child.out()) != LIB3MF_OK)
       return last_error(object);
-    BOOL moved = false;
-    MODELTRANSFORM t;
-    if (lib3mf_component_hastransform(component.get(), &moved) != LIB3MF_OK ||
-        (moved && lib3mf_component_gettransform(component.get(), &t) != LIB3MF_OK))
-      return last_error(component.get());
-    const std::string why =
-        each_part(child.get(), moved ? compose(place, placement_of(t)) : place, depth + 1, f);
+    Placement inner;
+    std::string why = placed_by(component.get(), lib3mf_component_hastransform,
+                                lib3mf_component_gettransform, place, inner);
+    if (why.empty()) why = each_part(child.get(), inner, depth + 1, f);
     if (!why.empty()) return why;
   }
   return "";
@@ -518,18 +528,14 @@ std::string each_placed(void* model_handle, F&& f) {
     if (lib3mf_builditemiterator_getcurrent(items.get(), item.out()) != LIB3MF_OK ||
         lib3mf_builditem_getobjectresource(item.get(), object.out()) != LIB3MF_OK)
       return last_error(items.get());
-    BOOL moved = false;
-    MODELTRANSFORM t;
-    if (lib3mf_builditem_hasobjecttransform(item.get(), &moved) != LIB3MF_OK ||
-        (moved && lib3mf_builditem_getobjecttransform(item.get(), &t) != LIB3MF_OK))
-      return last_error(item.get());
-    const std::string why =
-        each_part(object.get(), moved ? placement_of(t) : kUnmoved, 0,
-                  [&](PLib3MFBase* mesh, const Placement& place) {
-                    if (++placed > kMostPlaced)
-                      return std::string("the build places more than a million meshes");
-                    return f(mesh, place);
-                  });
+    Placement place;
+    std::string why = placed_by(item.get(), lib3mf_builditem_hasobjecttransform,
+                                lib3mf_builditem_getobjecttransform, kUnmoved, place);
+    if (!why.empty()) return why;
+    why = each_part(object.get(), place, 0, [&](PLib3MFBase* mesh, const Placement& at) {
+      if (++placed > kMostPlaced) return std::string("the build places more than a million meshes");
+      return f(mesh, at);
+    });
     if (!why.empty()) return why;
   }
   if (placed) return "";
