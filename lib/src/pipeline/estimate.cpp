@@ -78,9 +78,10 @@ double surface_extent(const SampledGrid& grid) {
         }
       }
   }
-  int side = 0;
-  for (int a = 0; a < 3; ++a) side = std::max(side, hi[a] - lo[a]);
-  return side * grid.voxel_size();
+  if (hi[0] < lo[0]) return 0;  // no crossing cell
+  long long side = 0;
+  for (int a = 0; a < 3; ++a) side = std::max<long long>(side, hi[a] - lo[a]);
+  return static_cast<double>(side) * grid.voxel_size();
 }
 
 // The probes made so far in this process, by the set's parameters (all but the resolution) and
