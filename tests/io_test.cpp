@@ -12,6 +12,8 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include "base/placement.h"
+#include "base/weld.h"
 #include "io_fixtures.h"
 #include "qjulia/base/error.h"
 #include "qjulia/base/validate.h"
@@ -403,6 +405,48 @@ TEST(Gltf, BufferUrisMayOnlyNameRegularFilesInsideTheFolder) {
   }
 }
 
+// The one weld of the readers and measures: numbers in the order of first occurrence, -0 and +0
+// one position, the first position of each number kept.
+TEST(Weld, PositionsAreNumberedInTheOrderTheyFirstAppear) {
+  const std::vector<std::array<float, 3>> p = {{1, 2, 3}, {0, -0.0f, 1}, {1, 2, 3},
+                                               {4, 5, 6}, {0, 0, 1},     {4, 5, 6.0001f}};
+  std::vector<std::uint32_t> index(p.size());
+  ASSERT_EQ(qjulia::detail::number_positions(p.data(), p.size(), index.data()), 4u);
+  EXPECT_EQ(index, (std::vector<std::uint32_t>{0, 1, 0, 2, 1, 3}));
+  std::vector<std::array<float, 3>> welded(4);
+  qjulia::detail::first_positions(p.data(), p.size(), index.data(), welded.data());
+  EXPECT_EQ(welded[0], p[0]);
+  EXPECT_EQ(welded[2], p[3]);
+  EXPECT_EQ(welded[3], p[5]);
+  EXPECT_FALSE(std::signbit(welded[1][1]));  // -0 -> +0, as the positions were keyed
+}
+
+// The placements of glTF nodes and 3MF items: composition, a mirror's winding and normals.
+TEST(Placement, ComposedPlacementsMoveAndAMirrorReversesTheWinding) {
+  namespace d = qjulia::detail;
+  const d::Placement shift = {1, 0, 0, 5, 0, 1, 0, 0, 0, 0, 1, 0};
+  const d::Placement quarter = {0, -1, 0, 0, 1, 0, 0, 0, 0, 0, 1, 0};  // 90 degrees about z
+  std::array<float, 3> p[1] = {{1, 0, 0}};
+  d::place_positions(d::compose(shift, quarter), p, 1);  // turned first, then moved
+  EXPECT_EQ(p[0], (std::array<float, 3>{5, 1, 0}));
+  EXPECT_EQ(d::compose(d::kUnmoved, quarter), quarter);
+  EXPECT_DOUBLE_EQ(d::determinant(quarter), 1);
+  std::array<std::uint32_t, 3> t[1] = {{0, 1, 2}};
+  d::keep_outward(quarter, t, 1);
+  EXPECT_EQ(t[0], (std::array<std::uint32_t, 3>{0, 1, 2}));
+  const d::Placement mirror_squash = {-1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 0.5, 0};
+  EXPECT_DOUBLE_EQ(d::determinant(mirror_squash), -0.5);
+  d::keep_outward(mirror_squash, t, 1);
+  EXPECT_EQ(t[0], (std::array<std::uint32_t, 3>{0, 2, 1}));
+  // The normal of the plane x + z = 0 after x -> -x, z -> z / 2: the plane -x + 2z = 0, whose
+  // normal (-1, 0, 2) / sqrt(5) keeps the side it faced.
+  std::array<float, 3> n[1] = {{float(std::sqrt(0.5)), 0, float(std::sqrt(0.5))}};
+  d::place_normals(mirror_squash, n, 1);
+  EXPECT_NEAR(n[0][0], -1 / std::sqrt(5.0), 1e-6);
+  EXPECT_NEAR(n[0][1], 0, 1e-6);
+  EXPECT_NEAR(n[0][2], 2 / std::sqrt(5.0), 1e-6);
+}
+
 // A glTF's nodes place its meshes (Blender writes each object's transform in its node): the
 // scene's hierarchy is applied, a mesh used by two nodes is read twice, a mirroring node keeps
 // the faces and normals outward, and a file without nodes is read as it is.
@@ -444,6 +488,13 @@ TEST(Gltf, NodesPlaceTheirMeshesAndAMirrorKeepsTheFacesOutward) {
   // Without scenes, the nodes no other node holds are the roots: the same.
   const TriMesh rootless = with(nodes, nullptr);
   EXPECT_EQ(rootless.positions, placed.positions);
+  // The same placement as one column-major matrix: (x, y, z) -> (5 - 2y, 2x, 2z).
+  const TriMesh by_matrix =
+      with({{{"matrix", {0, 2, 0, 0, -2, 0, 0, 0, 0, 0, 2, 0, 5, 0, 0, 1}}, {"mesh", 0}}}, {0});
+  ASSERT_EQ(by_matrix.positions.size(), 4u);
+  for (int v = 0; v < 4; ++v)
+    for (int a = 0; a < 3; ++a)
+      EXPECT_NEAR(by_matrix.positions[v][a], expected[v][a], 1e-6) << v << " " << a;
   // A mirror (scale -1 along x): the faces keep facing out (positive volume), and so do the
   // normals.
   const TriMesh mirrored = with({{{"scale", {-1, 1, 1}}, {"mesh", 0}}}, {0});

@@ -47,4 +47,13 @@ std::size_t number_positions(const std::array<float, 3>* p, std::size_t n, std::
   return distinct;
 }
 
+void first_positions(const std::array<float, 3>* p, std::size_t n, const std::uint32_t* index,
+                     std::array<float, 3>* out) {
+  // Numbers go in the order of first occurrence: position i is the first of its number when
+  // that number is the next one.
+  std::size_t next = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    if (index[i] == next) out[next++] = {p[i][0] + 0.0f, p[i][1] + 0.0f, p[i][2] + 0.0f};
+}
+
 }  // namespace qjulia::detail

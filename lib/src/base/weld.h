@@ -17,4 +17,9 @@ std::size_t weld_table_slots(std::size_t n);
 /// there are.
 std::size_t number_positions(const std::array<float, 3>* p, std::size_t n, std::uint32_t* index);
 
+/// The welded positions: out[k] is the first of the `n` positions at `p` that number_positions()
+/// gave the number k (with -0 -> +0, as they were keyed); `out` holds as many as it returned.
+void first_positions(const std::array<float, 3>* p, std::size_t n, const std::uint32_t* index,
+                     std::array<float, 3>* out);
+
 }  // namespace qjulia::detail

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "base/placement.h"
 #include "io/formats.h"
 #include "qjulia/base/atomic_file.h"
 #include "qjulia/base/error.h"
@@ -527,24 +528,13 @@ void append_attribute(const tinygltf::Model& model, const tinygltf::Primitive& p
   out.insert(out.end(), values.begin(), values.end());
 }
 
-/// A node's placement: a column-major 4x4 matrix, as glTF writes them.
-using Matrix = std::array<double, 16>;
-
-constexpr Matrix kIdentity = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
-
-Matrix multiply(const Matrix& a, const Matrix& b) {
-  Matrix r{};
-  for (int col = 0; col < 4; ++col)
-    for (int row = 0; row < 4; ++row)
-      for (int k = 0; k < 4; ++k) r[col * 4 + row] += a[k * 4 + row] * b[col * 4 + k];
-  return r;
-}
-
 /// A node's own transform: its matrix, or translation * rotation * scale.
-Matrix local_matrix(const tinygltf::Node& n, ReadContext& ctx) {
-  Matrix m = kIdentity;
+Placement local_placement(const tinygltf::Node& n, ReadContext& ctx) {
+  Placement m = kUnmoved;
   if (n.matrix.size() == 16) {
-    std::copy(n.matrix.begin(), n.matrix.end(), m.begin());
+    // Column-major 4x4; its last row is (0, 0, 0, 1) in glTF.
+    for (int col = 0; col < 4; ++col)
+      for (int row = 0; row < 3; ++row) m[row * 4 + col] = n.matrix[std::size_t(col * 4 + row)];
   } else {
     if (!n.matrix.empty()) ctx.fail("a node's matrix does not have 16 numbers");
     if (!n.translation.empty() && n.translation.size() != 3)
@@ -563,8 +553,9 @@ Matrix local_matrix(const tinygltf::Node& n, ReadContext& ctx) {
                          2 * (x * y - z * w),     1 - 2 * (x * x + z * z), 2 * (y * z + x * w),
                          2 * (x * z + y * w),     2 * (y * z - x * w),     1 - 2 * (x * x + y * y)};
     for (int col = 0; col < 3; ++col)
-      for (int row = 0; row < 3; ++row) m[col * 4 + row] = r[col * 3 + row] * s[col];
-    for (int row = 0; row < 3; ++row) m[12 + row] = n.translation.empty() ? 0 : n.translation[row];
+      for (int row = 0; row < 3; ++row) m[row * 4 + col] = r[col * 3 + row] * s[col];
+    for (int row = 0; row < 3; ++row)
+      m[row * 4 + 3] = n.translation.empty() ? 0 : n.translation[row];
   }
   for (double v : m)
     if (!std::isfinite(v)) ctx.fail("a node's transform is not finite");
@@ -572,25 +563,12 @@ Matrix local_matrix(const tinygltf::Node& n, ReadContext& ctx) {
 }
 
 void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& prim,
-                      const Matrix& place, GltfMesh& g, ReadContext& ctx) {
+                      const Placement& place, GltfMesh& g, ReadContext& ctx) {
   const auto pos_it = prim.attributes.find("POSITION");
   if (pos_it == prim.attributes.end()) ctx.fail("a primitive has no POSITION");
   auto pos = read_vec3(model, pos_it->second, "POSITION", false, ctx);
-  const bool moved = place != kIdentity;
-  // A mirroring placement turns the faces inside out: their winding is reversed to keep them
-  // facing out.
-  const double det = place[0] * (place[5] * place[10] - place[9] * place[6]) -
-                     place[4] * (place[1] * place[10] - place[9] * place[2]) +
-                     place[8] * (place[1] * place[6] - place[5] * place[2]);
-  const bool mirrored = det < 0;
-  if (moved)
-    for (auto& p : pos) {
-      std::array<float, 3> q;
-      for (int row = 0; row < 3; ++row)
-        q[row] = static_cast<float>(place[row] * p[0] + place[4 + row] * p[1] +
-                                    place[8 + row] * p[2] + place[12 + row]);
-      p = q;
-    }
+  const bool moved = place != kUnmoved;
+  if (moved) place_positions(place, pos.data(), pos.size());
   TriMesh& mesh = g.mesh;
   if (mesh.positions.size() + pos.size() >= UINT32_MAX) ctx.fail("too many vertices");
   const uint32_t base = uint32_t(mesh.positions.size());
@@ -603,6 +581,7 @@ void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
     for (std::size_t i = 0; i < idx.size(); ++i) idx[i] = uint32_t(i);
   }
   if (idx.size() % 3 != 0) ctx.fail("a triangle primitive's index count is not a multiple of 3");
+  const std::size_t first_face = mesh.triangles.size();
   reserve_charged(mesh.triangles, mesh.triangles.size() + idx.size() / 3, ctx, "triangles");
   reserve_charged(mesh.positions, mesh.positions.size() + pos.size(), ctx, "vertices");
   for (std::size_t i = 0; i < idx.size(); i += 3) {
@@ -611,37 +590,19 @@ void append_primitive(const tinygltf::Model& model, const tinygltf::Primitive& p
         ctx.fail("index " + std::to_string(idx[i + k]) + " is out of range (" +
                  std::to_string(pos.size()) + " vertices)");
       }
-    if (mirrored)
-      mesh.triangles.push_back({base + idx[i], base + idx[i + 2], base + idx[i + 1]});
-    else
-      mesh.triangles.push_back({base + idx[i], base + idx[i + 1], base + idx[i + 2]});
+    mesh.triangles.push_back({base + idx[i], base + idx[i + 1], base + idx[i + 2]});
   }
+  keep_outward(place, mesh.triangles.data() + first_face, mesh.triangles.size() - first_face);
   mesh.positions.insert(mesh.positions.end(), pos.begin(), pos.end());
   const std::size_t first_normal = g.normals.size();
   append_attribute(model, prim, "NORMAL", pos.size(), false, g.normals, g.all_normals, ctx);
-  if (moved && g.all_normals) {
-    // Normals go by the inverse transpose of the placement's linear part (its cofactors; the
-    // length is set again).
-    const Matrix& m = place;
-    const double c[9] = {
-        m[5] * m[10] - m[9] * m[6], m[8] * m[6] - m[4] * m[10], m[4] * m[9] - m[8] * m[5],
-        m[9] * m[2] - m[1] * m[10], m[0] * m[10] - m[8] * m[2], m[8] * m[1] - m[0] * m[9],
-        m[1] * m[6] - m[5] * m[2],  m[4] * m[2] - m[0] * m[6],  m[0] * m[5] - m[4] * m[1]};
-    for (std::size_t v = first_normal; v < g.normals.size(); ++v) {
-      const auto n = g.normals[v];
-      double q[3];
-      for (int row = 0; row < 3; ++row)
-        q[row] = c[row * 3] * n[0] + c[row * 3 + 1] * n[1] + c[row * 3 + 2] * n[2];
-      const double len = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
-      const double k = len > 0 ? (det < 0 ? -1.0 : 1.0) / len : 0.0;
-      g.normals[v] = {float(q[0] * k), float(q[1] * k), float(q[2] * k)};
-    }
-  }
+  if (moved && g.all_normals)
+    place_normals(place, g.normals.data() + first_normal, g.normals.size() - first_normal);
   append_attribute(model, prim, "COLOR_0", pos.size(), true, g.colors, g.all_colors, ctx);
 }
 
 /// The triangle primitives of mesh `index`, placed by `place`.
-void append_mesh(const tinygltf::Model& model, int index, const Matrix& place, GltfMesh& g,
+void append_mesh(const tinygltf::Model& model, int index, const Placement& place, GltfMesh& g,
                  ReadContext& ctx) {
   if (index < 0 || std::size_t(index) >= model.meshes.size())
     ctx.fail("a node names mesh " + std::to_string(index) + ", which does not exist");
@@ -670,8 +631,8 @@ bool append_scene(const tinygltf::Model& model, GltfMesh& g, ReadContext& ctx) {
   // Depth first; the hierarchy is a forest (glTF 2.0, 5.25), so a node met twice is an error
   // (and a cycle cannot loop).
   std::vector<char> seen(nodes, 0);
-  std::vector<std::pair<int, Matrix>> stack;
-  for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.emplace_back(*it, kIdentity);
+  std::vector<std::pair<int, Placement>> stack;
+  for (auto it = roots.rbegin(); it != roots.rend(); ++it) stack.emplace_back(*it, kUnmoved);
   bool any = false;
   while (!stack.empty()) {
     const auto [index, parent] = stack.back();
@@ -681,7 +642,7 @@ bool append_scene(const tinygltf::Model& model, GltfMesh& g, ReadContext& ctx) {
     if (seen[std::size_t(index)]++)
       ctx.fail("node " + std::to_string(index) + " appears twice in the node hierarchy");
     const tinygltf::Node& n = model.nodes[std::size_t(index)];
-    const Matrix place = multiply(parent, local_matrix(n, ctx));
+    const Placement place = compose(parent, local_placement(n, ctx));
     if (n.mesh >= 0) {
       append_mesh(model, n.mesh, place, g, ctx);
       any = true;
@@ -701,7 +662,7 @@ TriMesh read_gltf(std::string_view bytes, bool binary, ReadContext& ctx) {
   if (!append_scene(model, g, ctx)) {
     g = GltfMesh();
     for (std::size_t m = 0; m < model.meshes.size(); ++m)
-      append_mesh(model, int(m), kIdentity, g, ctx);
+      append_mesh(model, int(m), kUnmoved, g, ctx);
   }
   if (g.mesh.triangles.empty()) ctx.fail("the file has no triangles");
   if (g.all_normals) g.mesh.normals = std::move(g.normals);

@@ -84,9 +84,7 @@ void weld_corners(const std::vector<std::array<float, 3>>& corners, TriMesh& mes
   const std::size_t distinct = number_positions(corners.data(), n, index);
   ctx.charge(distinct, 12, "vertex positions");
   mesh.positions.resize(distinct);
-  for (std::size_t c = n; c-- > 0;) mesh.positions[index[c]] = corners[c];  // the first wins
-  for (auto& p : mesh.positions)
-    for (float& x : p) x += 0.0f;  // -0 -> +0, as the positions were keyed
+  first_positions(corners.data(), n, index, mesh.positions.data());
 }
 
 void read_binary_corners(std::string_view data, std::vector<std::array<float, 3>>& corners,

@@ -17,6 +17,8 @@
 #include <memory>
 #include <new>
 
+#include "base/placement.h"
+
 namespace qjulia::detail {
 namespace {
 
@@ -447,27 +449,11 @@ std::string each_object(void* model, F&& f) {
   return "";
 }
 
-/// An affine placement, p' = m (p, 1): three rows of four (lib3mf's MODELTRANSFORM layout).
-using Placement = std::array<double, 12>;
-constexpr Placement kUnmoved = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0};
-
+/// A build item's or a component's transform as a placement (the same layout).
 Placement placement_of(const MODELTRANSFORM& t) {
   Placement m;
   for (int r = 0; r < 3; ++r)
     for (int c = 0; c < 4; ++c) m[r * 4 + c] = t.m_fFields[r][c];
-  return m;
-}
-
-/// `outer` after `inner`: p -> outer(inner(p)).
-Placement compose(const Placement& outer, const Placement& inner) {
-  Placement m{};
-  for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 4; ++c) {
-      double v = c == 3 ? outer[r * 4 + 3] : 0.0;
-      for (int k = 0; k < 3; ++k) v += outer[r * 4 + k] * inner[k * 4 + c];
-      m[r * 4 + c] = v;
-    }
-  }
   return m;
 }
 
@@ -581,18 +567,8 @@ std::string mesh(void* model, std::array<float, 3>* positions,
           i += std::uint32_t(base_v);
         }
       if (m != kUnmoved) {
-        for (std::size_t v = base_v; v < base_v + nv; ++v) {
-          const auto p = positions[v];
-          for (int r = 0; r < 3; ++r)
-            positions[v][r] = static_cast<float>(m[r * 4] * p[0] + m[r * 4 + 1] * p[1] +
-                                                 m[r * 4 + 2] * p[2] + m[r * 4 + 3]);
-        }
-        // A mirroring placement turns the faces inside out: their winding is reversed.
-        const double det = m[0] * (m[5] * m[10] - m[6] * m[9]) -
-                           m[1] * (m[4] * m[10] - m[6] * m[8]) + m[2] * (m[4] * m[9] - m[5] * m[8]);
-        if (det < 0)
-          for (std::size_t f = base_f; f < base_f + nf; ++f)
-            std::swap(triangles[f][1], triangles[f][2]);
+        place_positions(m, positions + base_v, nv);
+        keep_outward(m, triangles + base_f, nf);
       }
       base_v += nv;
       base_f += nf;

@@ -149,7 +149,7 @@ MeshMeasure measure_welded(const TriMesh& m, const CancelToken* cancel, std::siz
   if (welded == 0) return measure(m, cancel);
   TriMesh w;
   w.positions.resize(distinct);
-  for (std::size_t v = m.positions.size(); v-- > 0;) w.positions[index[v]] = m.positions[v];
+  detail::first_positions(m.positions.data(), m.positions.size(), index.data(), w.positions.data());
   w.triangles.reserve(m.triangles.size());
   for (const auto& t : m.triangles) {
     const std::array<std::uint32_t, 3> u = {index[t[0]], index[t[1]], index[t[2]]};
