@@ -276,6 +276,22 @@ TEST_F(Cli, MeshRefusesAGridOrPreviewNamedForAnotherFormat) {
   EXPECT_TRUE(fs::exists(work_ / "g.VDB"));
 }
 
+// An output option names one file: given twice with two names, the run is refused rather than
+// one of them dropped without a word; the same name twice is one file.
+TEST_F(Cli, AnOutputGivenTwiceWithTwoNamesIsRefused) {
+  expect_rejected("mesh --preset unit-ball --resolution 16 -o a.ply -o b.ply",
+                  "--output (-o) is given twice ('a.ply' and 'b.ply')");
+  expect_rejected("mesh --preset unit-ball --resolution 16 -o a.ply --stats a.json --stats=b.json",
+                  "--stats is given twice");
+  write_text(work_ / "m.ply", "");  // render's input; it is refused before it is read
+  expect_rejected("render m.ply -o a.png -o b.png", "--output (-o) is given twice", {"m.ply"});
+  fs::remove(work_ / "m.ply");
+  expect_rejected("compare --preset unit-ball --preset classic-julia --json a.json --json b.json",
+                  "--json is given twice");
+  EXPECT_EQ(run("mesh --preset unit-ball --resolution 16 --quiet -o a.ply --output=a.ply").code, 0);
+  EXPECT_EQ(files(), std::vector<std::string>{"a.ply"});
+}
+
 TEST_F(Cli, ADecimationThatStopsAboveItsTargetSaysSoOnStderr) {
   // Newton's cubic at 48 has a genus far too high for 500 faces: the guard stops first.
   const CliRun r = run("mesh --resolution 48 --faces 500 --quiet -o m.ply");
@@ -375,6 +391,19 @@ TEST_F(Cli, VersionPrintsOneLine) {
   EXPECT_EQ(r.out.rfind("qjulia ", 0), 0u) << r.out;
   EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
   EXPECT_EQ(run("--version").out, r.out);
+  expect_rejected("version extra", "takes no arguments, not 'extra'");
+}
+
+// `qjulia help COMMAND` is `qjulia COMMAND --help`; `presets` takes no arguments.
+TEST_F(Cli, HelpNamesACommandAndCommandsWithoutArgumentsRefuseThem) {
+  const CliRun help = run("help mesh");
+  ASSERT_EQ(help.code, 0) << help.err;
+  EXPECT_EQ(help.out, run("mesh --help").out);
+  EXPECT_NE(help.out.find("usage: qjulia mesh"), std::string::npos) << help.out;
+  EXPECT_EQ(run("help compare").out, run("compare --help").out);
+  EXPECT_EQ(run("help frobnicate").code, 2);
+  expect_rejected("help version", "'version' is not a command with options");
+  expect_rejected("presets classic-julia", "takes no arguments, not 'classic-julia'");
 }
 
 TEST_F(Cli, BenchRunsAPresetAndPrintsItsLine) {

@@ -32,6 +32,18 @@ std::vector<std::string> ParsedArgs::all(const std::string& name) const {
   return out;
 }
 
+std::optional<std::string> ParsedArgs::output_file(const std::string& name) const {
+  std::optional<std::string> out;
+  for (const auto& [n, v] : options) {
+    if (n != name) continue;
+    if (out && *out != v)
+      throw InvalidInput("--" + name + (name == "output" ? " (-o)" : "") + " is given twice ('" +
+                         *out + "' and '" + v + "'): a run writes one, give it once");
+    out = v;
+  }
+  return out;
+}
+
 ParsedArgs parse_args(const std::vector<std::string>& tokens, const std::vector<OptionSpec>& specs,
                       const std::string& command) {
   ParsedArgs out;

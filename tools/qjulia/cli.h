@@ -28,6 +28,9 @@ struct ParsedArgs {
   std::optional<std::string> get(const std::string& name) const;
   /// Every value given for `name`, in order (repeatable options).
   std::vector<std::string> all(const std::string& name) const;
+  /// The file an output option names: one run writes one such file, so two different values
+  /// are refused rather than the first one dropped. @throws InvalidInput naming both.
+  std::optional<std::string> output_file(const std::string& name) const;
 };
 
 /// Parses `tokens`: `--opt value` and `--opt=value` (values may start with '-'), flags, and

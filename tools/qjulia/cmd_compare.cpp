@@ -201,8 +201,8 @@ int cmd_compare(const Tokens& tokens, const CancelToken& cancel) {
   const ThreadLimit threads(args);
   const std::optional<std::size_t> max_memory = max_memory_from_args(args);
   const bool quiet = args.has("quiet");
-  const std::string json_path = args.get("json").value_or("");
-  const std::string colored_path = args.get("colored").value_or("");
+  const std::string json_path = args.output_file("json").value_or("");
+  const std::string colored_path = args.output_file("colored").value_or("");
   if (!colored_path.empty()) format_from_path(colored_path);  // a bad extension fails now
   // The outputs are checked now: never an input (--colored A would replace A), a directory
   // or a device.

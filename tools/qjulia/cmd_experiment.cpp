@@ -471,7 +471,7 @@ int cmd_experiment(const Tokens& tokens, const CancelToken& cancel) {
   }
   if (name != "table1" && name != "cardioid")
     throw InvalidInput("unknown experiment '" + name + "' (known: table1, cardioid)");
-  o.out = args.get("out").value_or(".");
+  o.out = args.output_file("out").value_or(".");
   std::error_code ec;
   const bool existed = std::filesystem::exists(o.out, ec);
   std::filesystem::create_directories(o.out, ec);

@@ -9,10 +9,13 @@ namespace qjulia::cli {
 
 int cmd_presets(const Tokens& tokens) {
   const ParsedArgs args = parse_args(tokens, {{"help", false}}, "presets");
-  if (args.has("help") || !args.positional.empty()) {
+  if (args.has("help")) {
     std::puts("usage: qjulia presets   (lists the built-in presets, one line each)");
-    return args.has("help") ? 0 : 2;
+    return 0;
   }
+  if (!args.positional.empty())
+    throw InvalidInput("takes no arguments, not '" + args.positional[0] +
+                       "' (qjulia params --preset NAME prints one preset)");
   for (const std::string& name : preset_names())
     std::printf("%-22s %s\n", name.c_str(), preset_description(name).c_str());
   return 0;

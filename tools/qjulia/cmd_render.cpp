@@ -59,7 +59,7 @@ int cmd_render(const Tokens& tokens, const CancelToken& cancel) {
   }
   if (args.positional.empty())
     throw InvalidInput("no input mesh given (usage: render MESH -o OUT.png)");
-  const auto out = args.get("output");
+  const auto out = args.output_file("output");
   if (!out) throw InvalidInput("-o OUT.png is required");
   if (!is_png_path(*out)) throw InvalidInput("-o: '" + *out + "' must end in .png");
 

@@ -28,7 +28,7 @@ commands:
   explore [PARAMS.json] [options]       the interactive page in the browser
   version                               print the version
 
-'qjulia COMMAND --help' describes a command's options.
+'qjulia COMMAND --help' (or 'qjulia help COMMAND') describes a command's options.
 )";
 
 /// `text` as one line: control characters (bytes of a hostile file quoted in a message, a
@@ -47,6 +47,37 @@ std::string one_line(const char* text) {
     }
   }
   return out;
+}
+
+/// Runs `command` with its arguments; 2 for an unknown command.
+int run(const std::string& command, const qjulia::cli::Tokens& args,
+        const qjulia::CancelToken& cancel) {
+  using namespace qjulia::cli;
+  if (command == "mesh") return cmd_mesh(args, cancel);
+  if (command == "presets") return cmd_presets(args);
+  if (command == "params") return cmd_params(args);
+  if (command == "compare") return cmd_compare(args, cancel);
+  if (command == "render") return cmd_render(args, cancel);
+  if (command == "experiment") return cmd_experiment(args, cancel);
+  if (command == "bench") return cmd_bench(args, cancel);
+  if (command == "explore") return cmd_explore(args, cancel);
+  if (command == "version" || command == "--version") {
+    if (!args.empty()) throw qjulia::InvalidInput("takes no arguments, not '" + args[0] + "'");
+    std::printf("qjulia %s\n", qjulia::version());
+    return 0;
+  }
+  if (command == "help" || command == "--help" || command == "-h") {
+    // `qjulia help mesh` is `qjulia mesh --help`.
+    if (args.size() == 1 && args[0] != "help" && args[0] != "version")
+      return run(args[0], {"--help"}, cancel);
+    if (!args.empty())
+      throw qjulia::InvalidInput("'" + args[0] +
+                                 "' is not a command with options (try 'qjulia help')");
+    std::fputs(kUsage, stdout);
+    return 0;
+  }
+  std::fprintf(stderr, "qjulia: unknown command '%s' (try 'qjulia help')\n", command.c_str());
+  return 2;
 }
 
 }  // namespace
@@ -72,24 +103,7 @@ int main(int argc, char** argv) {
   const std::string command = argv[1];
   const Tokens args(argv + 2, argv + argc);
   try {
-    if (command == "mesh") return cmd_mesh(args, cancel);
-    if (command == "presets") return cmd_presets(args);
-    if (command == "params") return cmd_params(args);
-    if (command == "compare") return cmd_compare(args, cancel);
-    if (command == "render") return cmd_render(args, cancel);
-    if (command == "experiment") return cmd_experiment(args, cancel);
-    if (command == "bench") return cmd_bench(args, cancel);
-    if (command == "explore") return cmd_explore(args, cancel);
-    if (command == "version" || command == "--version") {
-      std::printf("qjulia %s\n", qjulia::version());
-      return 0;
-    }
-    if (command == "help" || command == "--help" || command == "-h") {
-      std::fputs(kUsage, stdout);
-      return 0;
-    }
-    std::fprintf(stderr, "qjulia: unknown command '%s' (try 'qjulia help')\n", command.c_str());
-    return 2;
+    return run(command, args, cancel);
   } catch (const qjulia::InvalidInput& e) {
     std::fprintf(stderr, "qjulia %s: %s\n", command.c_str(), one_line(e.what()).c_str());
     return 2;

@@ -108,16 +108,16 @@ std::unique_ptr<MeshCommand> parse_mesh_command(const std::vector<std::string>& 
   }
   if (args.positional.size() > 1)
     throw InvalidInput("expected at most one parameter file, got '" + args.positional[1] + "'");
-  const auto out = args.get("output");
+  const auto out = args.output_file("output");
   if (!out) throw InvalidInput("missing -o OUT (e.g. -o julia.glb)");
   cmd->out = *out;
   format_from_path(cmd->out);  // an unknown extension fails before any work
   cmd->params = params_from_args(args, args.positional.empty() ? "" : args.positional[0]);
   cmd->params_json = params_to_json(cmd->params);
   cmd->threads = std::make_unique<ThreadLimit>(args);
-  cmd->preview = args.get("preview");
-  cmd->stats_path = args.get("stats");
-  cmd->vdb = args.get("vdb");
+  cmd->preview = args.output_file("preview");
+  cmd->stats_path = args.output_file("stats");
+  cmd->vdb = args.output_file("vdb");
   // Checked before the long run, so a bad value fails at once.
   cmd->preview_options = render_options_from_args(args, "preview-");
   cmd->preview_options.cancel = &cancel;
