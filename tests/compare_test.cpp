@@ -178,6 +178,16 @@ TEST(Compare, AnEmptyOrBrokenMeshIsInvalidInput) {
   EXPECT_THROW(qjulia::compare(cube(), nan), qjulia::InvalidInput);
 }
 
+// More samples than the CLI's --samples takes are refused before any is drawn (a caller of the
+// library, such as the Python module, could otherwise ask for 10^12 of 32 bytes each).
+TEST(Compare, MoreSamplesThanTheMostIsInvalidInput) {
+  qjulia::CompareOptions opts;
+  opts.samples = qjulia::kMostCompareSamples + 1;
+  EXPECT_THROW(qjulia::compare(cube(), cube(), opts), qjulia::InvalidInput);
+  opts.samples = 1000;
+  EXPECT_LT(qjulia::compare(cube(), cube(), opts).hausdorff, 1e-6);
+}
+
 TEST(Compare, ProgressCanCancel) {
   auto o = small_options();
   o.progress = [](double f) { return f < 0.5; };

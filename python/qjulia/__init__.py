@@ -20,6 +20,7 @@ memory estimate MemoryError, a file that cannot be read or written OSError.
 
 import json
 import math
+import numbers
 import os
 from collections.abc import Mapping
 
@@ -34,6 +35,8 @@ __version__ = _core.version()
 _SECTIONS = ("constants", "slice", "bounds", "mesh", "print")
 # The least max_memory, as for --max-memory.
 _MIN_MEMORY = 1 << 20
+# The most samples compare() takes per surface, as for --samples.
+_MOST_SAMPLES = _core.MOST_COMPARE_SAMPLES
 
 
 def presets():
@@ -54,6 +57,9 @@ def _base(params, preset):
     if params is not None and preset is not None:
         raise ValueError("give either params or preset, not both")
     if preset is not None:
+        if not isinstance(preset, str):
+            raise TypeError(f"preset must be a preset's name (presets()), not "
+                            f"{type(preset).__name__}")
         return json.loads(_core.preset_json(preset))
     if params is None:
         return json.loads(_core.preset_json("newton-cubic"))
@@ -182,10 +188,20 @@ def compare(a, b, *, samples=None, seed=None, progress=None, cancel=None):
     samples: surface samples per surface (every vertex, then random points up to this many)
     seed:    of the random samples (the same meshes and seed give the same result)
     """
+    for name, value in (("samples", samples), ("seed", seed)):
+        if value is None:
+            continue
+        if isinstance(value, bool) or not isinstance(value, numbers.Integral):
+            raise TypeError(f"{name} must be an integer, not {type(value).__name__}")
+        if value < 0 or value > (_MOST_SAMPLES if name == "samples" else 2**64 - 1):
+            raise ValueError(f"{name}: expected an integer in 0.."
+                             f"{_MOST_SAMPLES if name == 'samples' else 2**64 - 1}, not {value}")
     mesh_a, name_a = _as_mesh(a, "a")
     mesh_b, name_b = _as_mesh(b, "b")
-    text = _core.compare(mesh_a, mesh_b, name_a=name_a, name_b=name_b, samples=samples,
-                         seed=seed, progress=progress, cancel=cancel)
+    text = _core.compare(mesh_a, mesh_b, name_a=name_a, name_b=name_b,
+                         samples=None if samples is None else int(samples),
+                         seed=None if seed is None else int(seed), progress=progress,
+                         cancel=cancel)
     return json.loads(text)
 
 

@@ -39,6 +39,10 @@ py::object optional_view(const std::vector<std::array<T, 3>>& rows, const py::ha
 template <typename T>
 std::vector<std::array<T, 3>> rows_of(const py::handle& obj, const char* name) {
   using Array = py::array_t<T, py::array::c_style | py::array::forcecast>;
+  // A cast would drop an imaginary part without a word.
+  if (const py::array given = py::array::ensure(obj); given && given.dtype().kind() == 'c')
+    throw InvalidInput(std::string(name) + ": expected real numbers, not " +
+                       py::str(given.dtype()).cast<std::string>());
   const Array a = Array::ensure(obj);
   if (!a) throw InvalidInput(std::string(name) + ": expected an N x 3 array of numbers");
   if (a.ndim() != 2 || a.shape(1) != 3) {

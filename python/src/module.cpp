@@ -212,6 +212,7 @@ py::array_t<std::uint8_t> render_mesh(const PyMesh& mesh, const py::kwargs& kwar
 // Writes an H x W x 3 uint8 array as a PNG, as `qjulia render` writes its images.
 void save_png(const py::object& path_like, const py::handle& pixels) {
   const std::string path = fspath(path_like);
+  if (!is_png_path(path)) throw InvalidInput(path + ": must end in .png (the image is a PNG)");
   const py::array given = py::array::ensure(pixels);
   if (!given || given.ndim() != 3 || given.shape(2) != 3)
     throw InvalidInput("image: expected an H x W x 3 array of uint8");
@@ -491,6 +492,7 @@ PYBIND11_MODULE(_core, m) {
         "The JSON of `qjulia compare --json`.");
   m.def("render", &render_mesh, py::arg("mesh"),
         "Renders a mesh; keyword arguments as the members of RenderOptions.");
+  m.attr("MOST_COMPARE_SAMPLES") = py::int_(kMostCompareSamples);
   m.def("save_png", &save_png, py::arg("path"), py::arg("image"),
         "Writes an H x W x 3 uint8 image (render()) as a PNG.");
   m.def("_throw_for_test", &throw_for_test, py::arg("kind"), py::arg("message"));

@@ -75,6 +75,21 @@ def test_compare_of_a_wrong_thing_is_a_type_error(pair):
         qjulia.compare(pair[0], 3)
 
 
+def test_compare_samples_and_seed_are_checked_as_the_cli_checks_them(pair):
+    for bad in [-1, qjulia._core.MOST_COMPARE_SAMPLES + 1]:
+        with pytest.raises(ValueError, match=f"samples: expected an integer in 0..100000000, "
+                                             f"not {bad}"):
+            qjulia.compare(pair[0], pair[1], samples=bad)
+    with pytest.raises(ValueError, match="seed"):
+        qjulia.compare(pair[0], pair[1], seed=-5)
+    for bad in [1.5, "100", True]:
+        with pytest.raises(TypeError, match="samples must be an integer"):
+            qjulia.compare(pair[0], pair[1], samples=bad)
+    # numpy integers are integers.
+    assert qjulia.compare(pair[0], pair[1], samples=np.int64(SAMPLES)) == \
+        qjulia.compare(pair[0], pair[1], samples=SAMPLES)
+
+
 def test_render_equals_the_cli_image(tmp_path, pair):
     m = qjulia.mesh(preset="classic-julia", resolution=28, mesh={"color": "iterations"})
     m.save(tmp_path / "m.ply")
@@ -107,6 +122,10 @@ def test_save_png_writes_the_image(tmp_path, pair):
     with pytest.raises(ValueError, match="float64"):
         qjulia.save_png(tmp_path / "l.png", image / 255.0)
     assert not (tmp_path / "l.png").exists()
+    # PNG bytes go to a .png only, as `qjulia render -o` and `--preview` refuse another name.
+    with pytest.raises(ValueError, match="must end in .png"):
+        qjulia.save_png(tmp_path / "i.jpg", image)
+    assert not (tmp_path / "i.jpg").exists()
 
 
 def test_render_uses_the_library_defaults_and_checks_options(pair):

@@ -133,6 +133,11 @@ def test_mesh_from_arrays_checks_them():
     bad[2, 1] = np.nan
     with pytest.raises(ValueError, match="Mesh: vertex 2 has a non-finite position"):
         qjulia.Mesh(bad, f)
+    # A cast would drop the imaginary parts without a word.
+    with pytest.raises(ValueError, match="vertices: expected real numbers, not complex128"):
+        qjulia.Mesh(v + 1j, f)
+    with pytest.raises(ValueError, match="normals: expected real numbers"):
+        qjulia.Mesh(v, f, normals=v.astype(np.complex64))
 
 
 def test_strided_arrays_give_the_mesh_of_their_values():

@@ -103,6 +103,11 @@ def test_an_unknown_preset_has_the_cli_message():
     assert str(e.value) == cli_error("params", "--preset", "no-such-preset")
 
 
+def test_a_preset_that_is_not_a_name_is_a_type_error():
+    with pytest.raises(TypeError, match="preset must be a preset's name"):
+        qjulia.params(preset=5)
+
+
 def test_a_bad_formula_has_the_cli_message(tmp_path):
     # Named by its source, as the CLI names a parameter file: "parameters" for a dict.
     with pytest.raises(ValueError) as e:

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "qjulia/field/params.h"
+#include "qjulia/mesh/compare.h"
 
 namespace qjulia::cli {
 
@@ -62,7 +63,7 @@ Params params_from_args(const ParsedArgs& args, const std::string& params_file);
 /// Accepted --threads.
 inline constexpr ValueRange kThreadsRange{1, 1024};
 /// Accepted --samples of compare and experiment.
-inline constexpr ValueRange kSamplesRange{0, 100000000};
+inline constexpr ValueRange kSamplesRange{0, double(kMostCompareSamples)};
 
 /// The --threads of a command, applied to every stage it runs: while this object lives, TBB
 /// uses at most that many threads (no limit without the option). The one place --threads is

@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
-#include <filesystem>
 #include <tuple>
 
 #include "qjulia/base/error.h"
@@ -79,12 +78,6 @@ std::pair<int, int> parse_image_size(const std::string& text, const std::string&
     return {n, n};
   }
   return {side(text.substr(0, x)), side(text.substr(x + 1))};
-}
-
-bool is_png_path(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext == ".png";
 }
 
 std::array<std::uint8_t, 3> parse_color(const std::string& text, const std::string& what) {

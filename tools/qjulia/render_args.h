@@ -32,7 +32,4 @@ std::pair<int, int> parse_image_size(const std::string& text, const std::string&
 /// "#rrggbb", "#rgb" or "r,g,b" with integers 0..255. @throws InvalidInput naming `what`.
 std::array<std::uint8_t, 3> parse_color(const std::string& text, const std::string& what);
 
-/// Whether `path` ends in .png (any case): the images render and --preview write and read.
-bool is_png_path(const std::string& path);
-
 }  // namespace qjulia::cli

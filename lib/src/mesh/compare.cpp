@@ -163,6 +163,9 @@ MeshMeasure measure_welded(const TriMesh& m, const CancelToken* cancel, std::siz
 CompareResult compare(const TriMesh& a, const TriMesh& b, const CompareOptions& opts) {
   validate_mesh(a, "compare: the first surface (a)", {/*faces=*/true});
   validate_mesh(b, "compare: the second surface (b)", {/*faces=*/true});
+  if (opts.samples > kMostCompareSamples)
+    throw InvalidInput("compare: samples must be at most " + std::to_string(kMostCompareSamples) +
+                       " per surface, not " + std::to_string(opts.samples));
   CompareResult result;
   std::unique_ptr<detail::TriangleBvh> bvh_a, bvh_b;
   Samples sa, sb;

@@ -4,6 +4,8 @@
 #include <png.h>
 
 #include <algorithm>
+#include <cctype>
+#include <filesystem>
 #include <stdexcept>
 
 #include "qjulia/base/atomic_file.h"
@@ -50,6 +52,12 @@ void blit(Image& dst, const Image& src, int x, int y) {
   for (int row = std::max(y, 0); row < std::min(y + src.height, dst.height); ++row)
     std::copy_n(&src.rgb[(static_cast<std::size_t>(row - y) * src.width + (x0 - x)) * 3],
                 (x1 - x0) * 3, &dst.rgb[(static_cast<std::size_t>(row) * dst.width + x0) * 3]);
+}
+
+bool is_png_path(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext == ".png";
 }
 
 void write_png(const std::string& path, const Image& image) {

@@ -18,11 +18,14 @@ struct DirectedDistance {
   std::size_t samples = 0;
 };
 
+/// The most surface samples compare() takes per surface (32 bytes each, twice).
+inline constexpr std::size_t kMostCompareSamples = 100000000;
+
 /// Options of compare().
 struct CompareOptions {
   /// Surface samples per unit area is chosen so each surface gets about this many samples
   /// (vertices are always included: every vertex, then area-proportional random points up to
-  /// this many in all).
+  /// this many in all), at most kMostCompareSamples.
   std::size_t samples = 1000000;
   /// Seed of the random surface samples: the same meshes and seed give the same result.
   std::uint64_t seed = 20260101;
@@ -47,7 +50,8 @@ struct CompareResult {
 /// and area-proportional random points of each surface (opts.samples in all) to the other (exact
 /// point-to-triangle distances through a BVH; multi-threaded; deterministic for a given seed).
 /// @throws InvalidInput when either has no faces, an index out of range or a non-finite
-///         position; Cancelled when opts.progress returns false.
+///         position, or opts.samples exceeds kMostCompareSamples; Cancelled when opts.progress
+///         returns false.
 CompareResult compare(const TriMesh& a, const TriMesh& b, const CompareOptions& opts = {});
 
 /// A colour ramp for per-vertex values (blue - cyan - green - yellow - red from `lo` to `hi`;

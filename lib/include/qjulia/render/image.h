@@ -34,6 +34,9 @@ void fill_rect(Image& image, int x0, int y0, int x1, int y1, const Rgb& color);
 /// skipped.
 void blit(Image& dst, const Image& src, int x, int y);
 
+/// Whether `path` ends in .png (any case): the images render and --preview write and read.
+bool is_png_path(const std::string& path);
+
 /// Writes a PNG through the library's atomic writer (a temporary file beside `path`, renamed at
 /// the end): 8-bit RGB, or 8-bit greyscale when every pixel is grey (same pixels, smaller file).
 /// @throws InvalidInput when image.rgb does not hold width * height * 3 bytes or when `path`
