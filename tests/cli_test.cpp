@@ -276,6 +276,27 @@ TEST_F(Cli, MeshRefusesAGridOrPreviewNamedForAnotherFormat) {
   EXPECT_TRUE(fs::exists(work_ / "g.VDB"));
 }
 
+// A minimum thickness above the whole model's size thickens all of it (often millimetres meant
+// for a model without --size): done, with a note that says so.
+TEST_F(Cli, AThicknessAboveTheWholeModelIsDoneWithANote) {
+  const CliRun over = run("mesh --preset unit-ball --resolution 16 --min-thickness 5mm -o o.ply");
+  ASSERT_EQ(over.code, 0) << over.err;
+  // The ball at 16 is 1.98 across (its vertices lie on the sphere, inside the box).
+  EXPECT_NE(over.err.find("note: --min-thickness 5 mm is more than the whole model (1.98 model "
+                          "units across before thickening)"),
+            std::string::npos)
+      << over.err;
+  EXPECT_NE(over.err.find("without --size, model units are read as mm"), std::string::npos);
+  const CliRun sized = run(
+      "mesh --preset unit-ball --resolution 16 --size 4mm --min-thickness 5mm -o s.ply --quiet");
+  ASSERT_EQ(sized.code, 0) << sized.err;
+  EXPECT_NE(sized.err.find("than the whole model (4 mm across"), std::string::npos) << sized.err;
+  const CliRun under =
+      run("mesh --preset unit-ball --resolution 16 --min-thickness 1mm -o u.ply --quiet");
+  ASSERT_EQ(under.code, 0) << under.err;
+  EXPECT_EQ(under.err.find("note:"), std::string::npos) << under.err;
+}
+
 // An output option names one file: given twice with two names, the run is refused rather than
 // one of them dropped without a word; the same name twice is one file.
 TEST_F(Cli, AnOutputGivenTwiceWithTwoNamesIsRefused) {

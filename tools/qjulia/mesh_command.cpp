@@ -191,6 +191,14 @@ void finish_mesh_command(MeshCommand& cmd, RunStats& stats, const TriMesh* mesh,
   if (cmd.stats_path && !stats_out) std::fprintf(summary, "stats: %s\n", cmd.stats_path->c_str());
   if (cmd.vdb) std::fprintf(summary, "grid:  %s\n", cmd.vdb->c_str());
   if (cmd.preview) std::fprintf(summary, "preview: %s\n", cmd.preview->c_str());
+  if (const auto& t = cmd.params.print.min_thickness_mm;
+      t && stats.extent_before_thickening > 0 && *t > stats.extent_before_thickening)
+    std::fprintf(stderr,
+                 "%s: note: --min-thickness %g mm is more than the whole model (%.3g %s across "
+                 "before thickening): every part of it was thickened%s\n",
+                 cmd.program.c_str(), *t, stats.extent_before_thickening,
+                 stats.unit == "mm" ? "mm" : "model units",
+                 stats.unit == "mm" ? "" : " (without --size, model units are read as mm)");
   if (stats.decimate && !stats.decimate->target_reached) {
     const auto& d = *stats.decimate;
     const auto& mp = cmd.params.mesh;

@@ -66,6 +66,9 @@ struct RunStats {
   std::string memory_limit_source;  ///< MemoryLimits::describe()
   double scale = 1.0;               ///< factor applied by print.size_mm
   std::string unit;                 ///< "mm" when scaled for printing
+  /// The longest side of the mesh's bounding box before print.min_thickness_mm thickened it,
+  /// in the mesh's units (0 without thickening): a thickness above it thickens every part.
+  double extent_before_thickening = 0;
   /// One rank of a distributed run (run_pipeline_distributed()).
   struct Rank {
     std::uint64_t bricks = 0;       ///< bricks it sampled
