@@ -276,6 +276,32 @@ TEST_F(Cli, MeshRefusesAGridOrPreviewNamedForAnotherFormat) {
   EXPECT_TRUE(fs::exists(work_ / "g.VDB"));
 }
 
+// A mesh file qjulia wrote records its parameters: given in place of a parameter file, the same
+// mesh is made again (flags still override); an STL's are in its sidecar, a foreign file has none.
+TEST_F(Cli, AMeshFileGivesTheParametersItRecords) {
+  ASSERT_EQ(run("mesh --preset classic-julia --resolution 24 --quiet -o a.glb --stats a.json").code,
+            0);
+  const CliRun again = run("mesh a.glb --quiet -o b.ply --stats b.json");
+  ASSERT_EQ(again.code, 0) << again.err;
+  const json a = json::parse(read_text(work_ / "a.json")),
+             b = json::parse(read_text(work_ / "b.json"));
+  EXPECT_EQ(b["parameters"], a["parameters"]);
+  EXPECT_EQ(b["faces"], a["faces"]);
+  EXPECT_EQ(b["volume"], a["volume"]);
+  const CliRun finer = run("params b.ply --resolution 40");
+  ASSERT_EQ(finer.code, 0) << finer.err;
+  EXPECT_EQ(json::parse(finer.out)["resolution"], 40);
+  EXPECT_EQ(json::parse(finer.out)["formula"], a["parameters"]["formula"]);
+  ASSERT_EQ(run("mesh --preset unit-ball --resolution 16 --quiet -o s.stl").code, 0);
+  expect_rejected("mesh s.stl -o t.ply",
+                  "s.stl: the mesh file records no parameters (an STL file's are in its sidecar, "
+                  "s.stl.json)",
+                  {"a.glb", "a.json", "b.json", "b.ply", "s.stl", "s.stl.json"});
+  write_text(work_ / "f.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+  expect_rejected("mesh f.obj -o t.ply", "f.obj: the mesh file records no parameters",
+                  {"a.glb", "a.json", "b.json", "b.ply", "f.obj", "s.stl", "s.stl.json"});
+}
+
 // A minimum thickness above the whole model's size thickens all of it (often millimetres meant
 // for a model without --size): done, with a note that says so.
 TEST_F(Cli, AThicknessAboveTheWholeModelIsDoneWithANote) {

@@ -145,7 +145,8 @@ def mesh(params=None, *, preset=None, progress=None, cancel=None, vdb=False, den
          max_memory=None, **overrides):
     """Meshes a Julia set: the whole pipeline of `qjulia mesh`, in-process.
 
-    params:     a dict shaped like a parameter file, or the path of one (not with preset)
+    params:     a dict shaped like a parameter file, or the path of one or of a mesh file
+                qjulia wrote (its recorded parameters; not with preset)
     preset:     a built-in preset's name (presets()); neither: newton-cubic
     overrides:  top-level keys of the parameter file (see the module's docstring)
     progress:   callable(stage, fraction), called on this thread about every 50 ms while the

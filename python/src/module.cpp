@@ -471,9 +471,11 @@ PYBIND11_MODULE(_core, m) {
       "params_file_json",
       [](const std::string& path) {
         check_readable(path);
-        return params_to_json(read_params_file(path));
+        return params_to_json(read_params_from(path));
       },
-      py::arg("path"), "A parameter file, read, checked and written out complete (JSON).");
+      py::arg("path"),
+      "A parameter file, or the one a mesh file records, read, checked and written out complete "
+      "(JSON).");
   m.def(
       "normalize_params",
       [](const std::string& json, const std::string& source) {

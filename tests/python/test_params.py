@@ -103,6 +103,16 @@ def test_an_unknown_preset_has_the_cli_message():
     assert str(e.value) == cli_error("params", "--preset", "no-such-preset")
 
 
+def test_a_mesh_file_gives_the_parameters_it_records(tmp_path):
+    m = qjulia.mesh(preset="classic-julia", resolution=20)
+    m.save(tmp_path / "m.glb")
+    same = qjulia.mesh(tmp_path / "m.glb")
+    assert same.params == m.params
+    assert (same.stats["faces"], same.stats["volume"]) == (m.stats["faces"], m.stats["volume"])
+    again = qjulia.mesh(str(tmp_path / "m.glb"), resolution=24)
+    assert again.params["resolution"] == 24 and again.params["formula"] == m.params["formula"]
+
+
 def test_a_preset_that_is_not_a_name_is_a_type_error():
     with pytest.raises(TypeError, match="preset must be a preset's name"):
         qjulia.params(preset=5)

@@ -9,6 +9,7 @@
 
 #include "qjulia/base/error.h"
 #include "qjulia/base/memory.h"
+#include "qjulia/io/mesh_io.h"
 
 namespace qjulia::cli {
 
@@ -180,7 +181,7 @@ Params params_from_args(const ParsedArgs& args, const std::string& params_file) 
   const auto preset_name = args.get("preset");
   if (!params_file.empty() && preset_name)
     throw InvalidInput("give either a parameter file or --preset, not both");
-  Params p = !params_file.empty() ? read_params_file(params_file)
+  Params p = !params_file.empty() ? read_params_from(params_file)
              : preset_name        ? preset(*preset_name)
                                   : preset("newton-cubic");
   if (auto v = args.get("formula")) p.formula = *v;

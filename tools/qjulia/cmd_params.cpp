@@ -27,8 +27,9 @@ int cmd_params(const Tokens& tokens) {
   const ParsedArgs args = parse_args(tokens, specs, "params");
   if (args.has("help")) {
     std::puts(
-        "usage: qjulia params [PARAMS.json] [--preset NAME] [overrides...]\n"
-        "Prints the resulting parameter file (flags as for qjulia mesh).");
+        "usage: qjulia params [PARAMS.json | MESH] [--preset NAME] [overrides...]\n"
+        "Prints the resulting parameter file (flags as for qjulia mesh; MESH: the parameters a\n"
+        "mesh file written by qjulia records).");
     return 0;
   }
   if (args.positional.size() > 1)

@@ -18,7 +18,7 @@ namespace {
 constexpr const char* kUsage = R"(usage: qjulia COMMAND [ARGS]
 
 commands:
-  mesh [PARAMS.json] [options] -o OUT   mesh a Julia set (default: the Newton cubic, cut-off)
+  mesh [PARAMS.json|MESH] [opts] -o OUT mesh a Julia set (default: the Newton cubic, cut-off)
   presets                               list the built-in presets
   params --preset NAME                  print a preset as a parameter file
   compare A B [options]                 compare two surfaces (meshes or parameter sets)

@@ -14,10 +14,12 @@ namespace qjulia::cli {
 namespace {
 
 constexpr const char* kHelp =
-    R"help(usage: %s [PARAMS.json] [options] -o OUT.(glb|gltf|obj|ply|stl|3mf)
+    R"help(usage: %s [PARAMS.json | MESH] [options] -o OUT.(glb|gltf|obj|ply|stl|3mf)
 
 Meshes the solid of a quaternionic Julia set. Without parameters: the Newton cubic
-(2h^3+1)/(3h^2) with the cut-off method (preset newton-cubic).
+(2h^3+1)/(3h^2) with the cut-off method (preset newton-cubic). MESH: a .glb, .gltf, .obj,
+.ply or .3mf that qjulia wrote; its recorded parameters are used (an STL's are in its
+sidecar, MESH.stl.json).
 
 parameters (override the file or preset; each number must lie in the range shown):
   --preset NAME              start from a built-in preset (qjulia presets)

@@ -9,6 +9,7 @@
 
 #include "qjulia/base/mesh.h"
 #include "qjulia/base/progress.h"
+#include "qjulia/field/params.h"
 
 namespace qjulia {
 
@@ -85,6 +86,13 @@ TriMesh read_mesh_from_memory(std::string_view bytes, MeshFormat format,
 /// comments, 3MF metadata), pretty-printed JSON; "" when the file records none (STL).
 /// @throws InvalidInput like read_mesh().
 std::string read_mesh_params(const std::string& path);
+
+/// The parameters in `path`: those a mesh file records (read_mesh_params(); by its extension:
+/// .glb .gltf .obj .ply .3mf), or a parameter file (any other name). A mesh made from them
+/// again is the recorded one, at the recorded resolution unless overridden.
+/// @throws InvalidInput naming `path` when it cannot be read, records no parameters (an STL
+///         file: its sidecar `path`.json is the parameter file) or holds invalid ones.
+Params read_params_from(const std::string& path);
 
 /// The files write_mesh(path, ...) creates: `path`, and for .gltf also its .bin (same base
 /// name), so a caller that must remove them again (a later step failed) removes both.
