@@ -453,6 +453,16 @@ TEST_F(Cli, HelpNamesACommandAndCommandsWithoutArgumentsRefuseThem) {
   expect_rejected("presets classic-julia", "takes no arguments, not 'classic-julia'");
 }
 
+// The lists are checked before the kernel's measurement and the first run: an unknown preset
+// late in the list does not cost the runs before it.
+TEST_F(Cli, BenchRefusesAnEmptyListOrAnUnknownPresetBeforeAnyRun) {
+  const CliRun late =
+      expect_rejected("bench --presets unit-ball,nope --resolutions 8", "unknown preset 'nope'");
+  EXPECT_TRUE(late.out.empty()) << late.out;
+  expect_rejected("bench --presets= --resolutions 8", "--presets: expected preset names");
+  expect_rejected("bench --presets unit-ball --resolutions=", "--resolutions: expected");
+}
+
 TEST_F(Cli, BenchRunsAPresetAndPrintsItsLine) {
   const CliRun r = run("bench --presets unit-ball --resolutions 32 --threads 1");
   ASSERT_EQ(r.code, 0) << r.err;

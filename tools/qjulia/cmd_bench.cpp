@@ -48,9 +48,13 @@ int cmd_bench(const Tokens& tokens, const CancelToken& cancel) {
     return 0;
   }
   const auto presets = split(args.get("presets").value_or("classic-julia,newton-cubic"));
+  if (presets.empty()) throw InvalidInput("--presets: expected preset names, a,b (qjulia presets)");
+  for (const auto& name : presets) preset(name);  // an unknown name fails before any run
   std::vector<int> resolutions;
   for (const auto& r : split(args.get("resolutions").value_or("256,512")))
     resolutions.push_back(static_cast<int>(parse_int(r, "--resolutions", kResolutionRange)));
+  if (resolutions.empty())
+    throw InvalidInput("--resolutions: expected resolutions, 1..1000000 each (e.g. 256,512)");
   const ThreadLimit threads(args);
   const int nthreads = threads.threads();
   std::printf("malloc on transparent huge pages: %s\n", malloc_huge_pages_state().c_str());
