@@ -49,7 +49,6 @@ int cmd_bench(const Tokens& tokens, const CancelToken& cancel) {
   }
   const auto presets = split(args.get("presets").value_or("classic-julia,newton-cubic"));
   if (presets.empty()) throw InvalidInput("--presets: expected preset names, a,b (qjulia presets)");
-  for (const auto& name : presets) preset(name);  // an unknown name fails before any run
   std::vector<int> resolutions;
   for (const auto& r : split(args.get("resolutions").value_or("256,512")))
     resolutions.push_back(static_cast<int>(parse_int(r, "--resolutions", kResolutionRange)));
@@ -57,6 +56,8 @@ int cmd_bench(const Tokens& tokens, const CancelToken& cancel) {
     throw InvalidInput("--resolutions: expected resolutions, 1..1000000 each (e.g. 256,512)");
   const ThreadLimit threads(args);
   const int nthreads = threads.threads();
+  const auto max_memory = max_memory_from_args(args);
+  for (const auto& name : presets) preset(name);  // an unknown name fails before any run
   std::printf("malloc on transparent huge pages: %s\n", malloc_huge_pages_state().c_str());
   std::printf("malloc thresholds: %s\n", malloc_thresholds_state().c_str());
   if (args.has("malloc")) return 0;
@@ -71,7 +72,6 @@ int cmd_bench(const Tokens& tokens, const CancelToken& cancel) {
     std::fflush(stdout);
     if (args.has("kernel")) return 0;
   }
-  const auto max_memory = max_memory_from_args(args);
   std::printf("qjulia %s bench, %d thread(s)%s\n", version(), nthreads,
               args.has("dense") ? ", dense sampling" : "");
   std::printf("%-16s %5s %12s %8s %12s %12s %9s %9s %9s %9s %9s %8s\n", "preset", "res",
