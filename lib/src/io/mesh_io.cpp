@@ -337,17 +337,4 @@ std::string read_mesh_params(const std::string& path) {
   return "";
 }
 
-Params read_params_from(const std::string& path) {
-  const std::string ext = detail::lower_extension(path);
-  const bool mesh = ext == ".glb" || ext == ".gltf" || ext == ".obj" || ext == ".ply" ||
-                    ext == ".stl" || ext == ".3mf";
-  if (!mesh) return read_params_file(path);
-  const std::string json = read_mesh_params(path);
-  if (json.empty())
-    throw InvalidInput(path + ": the mesh file records no parameters" +
-                       (ext == ".stl" ? " (an STL file's are in its sidecar, " + path + ".json)"
-                                      : std::string(" (it was not written by qjulia)")));
-  return parse_params(json, path);
-}
-
 }  // namespace qjulia
