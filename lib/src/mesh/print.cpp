@@ -12,12 +12,7 @@
 
 namespace qjulia {
 
-double scale_to_longest_side(TriMesh& mesh, double length) {
-  if (!(length > 0) || !std::isfinite(length))
-    throw InvalidInput("print: size must be a positive length, got " + std::to_string(length));
-  validate_mesh(mesh, "print");
-  if (mesh.positions.empty() || mesh.triangles.empty())
-    throw InvalidInput("print: cannot scale an empty mesh");
+double longest_side(const TriMesh& mesh) {
   double lo[3], hi[3];
   for (int k = 0; k < 3; ++k) {
     lo[k] = std::numeric_limits<double>::max();
@@ -29,7 +24,17 @@ double scale_to_longest_side(TriMesh& mesh, double length) {
         lo[k] = std::min(lo[k], double(mesh.positions[v][k]));
         hi[k] = std::max(hi[k], double(mesh.positions[v][k]));
       }
-  const double longest = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+  if (mesh.triangles.empty()) return 0;
+  return std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]});
+}
+
+double scale_to_longest_side(TriMesh& mesh, double length) {
+  if (!(length > 0) || !std::isfinite(length))
+    throw InvalidInput("print: size must be a positive length, got " + std::to_string(length));
+  validate_mesh(mesh, "print");
+  if (mesh.positions.empty() || mesh.triangles.empty())
+    throw InvalidInput("print: cannot scale an empty mesh");
+  const double longest = longest_side(mesh);
   if (!(longest > 0))
     throw InvalidInput("print: cannot scale a mesh with a zero-size bounding box");
   const double s = length / longest;

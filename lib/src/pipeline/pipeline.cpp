@@ -1,9 +1,7 @@
 #include "qjulia/pipeline/pipeline.h"
 
 #include <algorithm>
-#include <array>
 #include <chrono>
-#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <new>
@@ -157,17 +155,7 @@ void finish_mesh(const Params& params, const PipelineOptions& opts, TriMesh& mes
     // Without --size the mesh is in model units, read as millimetres.
     topts.min_thickness = *params.print.min_thickness_mm;
     topts.cancel = opts.cancel;
-    std::array<float, 3> lo{HUGE_VALF, HUGE_VALF, HUGE_VALF},
-        hi{-HUGE_VALF, -HUGE_VALF, -HUGE_VALF};
-    for (const auto& p : mesh.positions)
-      for (int a = 0; a < 3; ++a) {
-        lo[a] = std::min(lo[a], p[a]);
-        hi[a] = std::max(hi[a], p[a]);
-      }
-    for (int a = 0; a < 3; ++a)
-      if (lo[a] <= hi[a])
-        stats.extent_before_thickening =
-            std::max(stats.extent_before_thickening, double(hi[a]) - double(lo[a]));
+    stats.extent_before_thickening = longest_side(mesh);
     topts.progress = timer.start("thicken");
     mesh = thicken(mesh, topts);
     known.reset();

@@ -10,6 +10,10 @@
 
 namespace qjulia {
 
+/// The longest side of the bounding box of the vertices the faces of `mesh` use (0 without
+/// faces), in the mesh's units.
+double longest_side(const TriMesh& mesh);
+
 /// Scales `mesh` uniformly about the origin so its longest bounding-box side is `length`.
 /// @throws InvalidInput when length <= 0, validate_mesh() refuses the mesh, or it is empty or
 ///         flat.
