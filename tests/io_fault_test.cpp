@@ -367,14 +367,14 @@ TEST(CliFiles, AFullDiskExitsOneNamingThePathAndLeavesNothing) {
   ASSERT_TRUE(disk.mounted());
   const std::string out = disk.file("m.ply");
   expect_exit(qjulia("mesh --resolution 48 --quiet -o " + quote(out)), 1,
-              out + ": write failed (No space left on device)");
+              out + ": write failed (No space left on device); nothing written");
   EXPECT_TRUE(disk.dir().names().empty());
   // A file-size limit: the shell ignores SIGXFSZ, so write() fails with EFBIG.
   TempDir dir;
   const std::string big = dir.file("m.obj");
   expect_exit(io_fixtures::shell("trap '' XFSZ; ulimit -f 16; exec " + std::string(QJULIA_CLI) +
                                  " mesh --resolution 48 --quiet -o " + quote(big)),
-              1, big + ": write failed (File too large)");
+              1, big + ": write failed (File too large); nothing written");
   EXPECT_TRUE(dir.names().empty());
 }
 

@@ -73,6 +73,15 @@ cmp -s "$work/p1.png" "$work/p2.png" || fail "preview differs"
 cmp -s "$work/p1.ply" "$work/p2.ply" || fail "mesh with preview differs"
 echo "ok: --preview on 2 ranks"
 
+# The version: one line, the library's, as `qjulia version` prints it; an argument exits 2.
+[ "$(mpi 2 version)" = "$("$qjulia" version | sed 's/^qjulia /qjulia-mpi /')" ] || fail "version"
+set +e
+mpi 1 version extra >/dev/null 2>"$work/err"
+code=$?
+set -e
+[ "$code" = 2 ] || fail "version with an argument exited $code"
+echo "ok: version"
+
 # Bad input: exit 2, one message, nothing written.
 set +e
 mpi 3 mesh --formula "h^^2" -o "$work/bad.ply" >"$work/out" 2>"$work/err"

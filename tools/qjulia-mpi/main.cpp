@@ -24,6 +24,7 @@
 namespace {
 
 constexpr const char* kUsage = R"(usage: mpirun -n K qjulia-mpi mesh [PARAMS.json] [options] -o OUT
+       qjulia-mpi version
 
 Meshes a quaternionic Julia set across K processes: the options and the files are those of
 'qjulia mesh' (qjulia-mpi mesh --help lists them). Binary PLY and STL are written by every rank
@@ -35,6 +36,14 @@ int run(int argc, char** argv, qjulia::mpi::MpiComm& comm) {
   using namespace qjulia;
   using namespace qjulia::cli;
   const bool root = comm.rank() == 0;
+  if (argc >= 2 && (std::string(argv[1]) == "version" || std::string(argv[1]) == "--version")) {
+    if (argc > 2) {
+      if (root) std::fprintf(stderr, "qjulia-mpi version: takes no arguments, not '%s'\n", argv[2]);
+      return 2;
+    }
+    if (root) std::printf("qjulia-mpi %s\n", qjulia::version());
+    return 0;
+  }
   if (argc < 2 || std::string(argv[1]) != "mesh") {
     if (root) std::fputs(kUsage, stderr);
     return 2;

@@ -124,7 +124,9 @@ int main(int argc, char** argv) {
                  qjulia::format_bytes(static_cast<double>(qjulia::peak_rss_bytes())).c_str());
     return 2;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "qjulia %s: error: %s\n", command.c_str(), one_line(e.what()).c_str());
+    // As above: what the command wrote is removed by now.
+    std::fprintf(stderr, "qjulia %s: error: %s; nothing written\n", command.c_str(),
+                 one_line(e.what()).c_str());
     return 1;
   }
 }
