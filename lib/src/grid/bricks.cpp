@@ -458,6 +458,14 @@ struct BrickSampler::Impl {
     const PointTables& t = point_tables();
     Bits<kBrickPoints> avail;
     if (!map) return avail;
+    // The neighbours' bit sets are scattered over the heap: their cache lines all asked for
+    // first, then read.
+    for (int o = 0; o < 27; ++o)
+      if (o != 13 && a.n[o]) {
+        const char* known = reinterpret_cast<const char*>(&a.n[o]->known);
+        __builtin_prefetch(known);
+        __builtin_prefetch(known + sizeof(Bits<kBrickPoints>) - 1);
+      }
     for (int o = 0; o < 27; ++o)
       if (o != 13 && a.n[o])
         avail = avail | shifted(a.n[o]->known & t.shared_with[o], -t.offset[o]);
