@@ -91,7 +91,8 @@ class Solid {
   std::uint64_t field(const double* x, const double* y, const double* z, std::size_t n,
                       float* out) const;
   /// The refinement values of the solid at n points (the classifier's, combined with the box
-  /// and clip constraints as field() does).
+  /// constraint as field() does). With clip planes, or with a point outside the box in the
+  /// batch, they are the field's values (F combined with the constraints) for every point.
   std::uint64_t root_field(const double* x, const double* y, const double* z, std::size_t n,
                            float* out) const;
   /// Exact: in the box, on the kept side of every clip plane, and classified inside.
