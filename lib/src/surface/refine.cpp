@@ -13,14 +13,18 @@ std::array<double, 3> lerp(const std::array<double, 3>& a, const std::array<doub
   return {a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1]), a[2] + t * (b[2] - a[2])};
 }
 
+// One segment in refinement; the states of the points being evaluated are kept in the order
+// of their evaluation (compacted as segments finish), so that each step reads them in turn.
 struct State {
   double lo = 0, hi = 1;    // lo keeps the sign of a, hi the sign of b
   double glo = 0, ghi = 0;  // the refinement values there, when known
+  double t = 0;             // the point being evaluated
+  std::uint32_t seg = 0;    // its segment
   bool lo_known = false, hi_known = false;
   bool plane = false;  // the outside end is outside only because of the box or a clip plane
-  double t = 0;        // the point being evaluated
-  int side = 0;        // Illinois: which end was kept last (-1 lo, +1 hi)
-  int steps = 0;
+  bool a_inside = false;  // the segment's end a is in the solid
+  std::int8_t side = 0;   // Illinois: which end was kept last (-1 lo, +1 hi)
+  std::int32_t steps = 0;
 };
 
 // Values of the refinement function beyond this are "far" (an orbit decided early), not a
@@ -34,117 +38,94 @@ std::uint64_t refine_segments(const Solid& solid, const Segment* seg, std::size_
   thread_local std::vector<State> st;
   thread_local std::vector<double> x, y, z;
   thread_local std::vector<float> f;
-  thread_local std::vector<std::size_t> which, active;
-  st.assign(n, State());
+  st.resize(n);
   x.resize(n);
   y.resize(n);
   z.resize(n);
   f.resize(n);
-  which.resize(n);
-  std::size_t queued = 0;
-  std::uint64_t evaluations = 0;
-  auto evaluate = [&]() {
-    solid.root_field(x.data(), y.data(), z.data(), queued, f.data());
-    evaluations += queued;
-  };
-  auto queue = [&](std::size_t i, double t) {
-    const auto p = lerp(seg[i].a, seg[i].b, t);
-    x[queued] = p[0];
-    y[queued] = p[1];
-    z[queued] = p[2];
-    which[queued++] = i;
-    st[i].t = t;
+  // Point q of the next evaluation: state s at its t.
+  auto place = [&](std::size_t q, const State& s) {
+    const auto p = lerp(seg[s.seg].a, seg[s.seg].b, s.t);
+    x[q] = p[0];
+    y[q] = p[1];
+    z[q] = p[2];
   };
   // An end outside only because of the box or a clip plane: the boundary is the plane when the
   // point on it is in the solid, which makes caps exactly flat. Else the first guess: where the
   // grid values interpolate to zero.
   for (std::size_t i = 0; i < n; ++i) {
-    State& s = st[i];
-    const bool a_inside = seg[i].fa <= 0;
+    State s;
+    s.seg = static_cast<std::uint32_t>(i);
+    s.a_inside = seg[i].fa <= 0;
     // An end in the solid has the refinement value of its field (the two agree inside).
     s.glo = seg[i].fa;
     s.ghi = seg[i].fb;
-    s.lo_known = a_inside;
-    s.hi_known = !a_inside;
-    const auto& o = a_inside ? seg[i].b : seg[i].a;
+    s.lo_known = s.a_inside;
+    s.hi_known = !s.a_inside;
+    const auto& o = s.a_inside ? seg[i].b : seg[i].a;
     s.plane = solid.constraint(o[0], o[1], o[2]) > 0;
     if (s.plane) {
-      const double c = solid.constraint_crossing(a_inside ? seg[i].a : seg[i].b, o);
-      const double tc = a_inside ? c : 1 - c;
-      queue(i, std::clamp(tc, kEndMargin, 1 - kEndMargin));
+      const double c = solid.constraint_crossing(s.a_inside ? seg[i].a : seg[i].b, o);
+      const double tc = s.a_inside ? c : 1 - c;
+      s.t = std::clamp(tc, kEndMargin, 1 - kEndMargin);
     } else {
       double t = seg[i].fa / (seg[i].fa - seg[i].fb);
       if (!(t > 0.01 && t < 0.99)) t = std::clamp(t, 0.01, 0.99);
-      queue(i, t);
+      s.t = t;
     }
-  }
-  evaluate();
-  active.clear();
-  for (std::size_t q = 0; q < queued; ++q) {
-    const std::size_t i = which[q];
-    State& s = st[i];
-    if (s.plane && f[q] <= 0) {
-      out[i] = lerp(seg[i].a, seg[i].b, s.t);
-      continue;
-    }
-    ++s.steps;
-    if ((f[q] <= 0) == (seg[i].fa <= 0)) {
-      s.lo = s.t;
-      s.glo = f[q];
-      s.lo_known = true;
-    } else {
-      s.hi = s.t;
-      s.ghi = f[q];
-      s.hi_known = true;
-    }
-    active.push_back(i);
+    st[i] = s;
+    place(i, s);
   }
   // Then regula falsi on the refinement values with the Illinois rule (the end kept twice has
   // its value halved, so both ends close in), bisection while an end's value is unknown or far.
-  while (!active.empty()) {
-    queued = 0;
-    for (const std::size_t i : active) {
-      State& s = st[i];
-      const bool smooth = s.lo_known && s.hi_known && std::abs(s.glo) < kFar &&
-                          std::abs(s.ghi) < kFar && s.glo != s.ghi;
-      if (s.steps >= max_steps || !(s.hi - s.lo > tol_t)) {
-        double t = smooth ? (s.glo * s.hi - s.ghi * s.lo) / (s.glo - s.ghi) : 0.5 * (s.lo + s.hi);
-        if (!(t >= s.lo && t <= s.hi)) t = 0.5 * (s.lo + s.hi);
-        // Never on a grid point: a vertex there would coincide with the vertices of the other
-        // edges of that point and leave zero-area triangles.
-        out[i] = lerp(seg[i].a, seg[i].b, std::clamp(t, kEndMargin, 1 - kEndMargin));
+  // Each step evaluates the points, moves each segment's bracket, and either places the
+  // segment's vertex or queues its next point (in the same order).
+  std::uint64_t evaluations = 0;
+  std::size_t queued = n;
+  for (bool first = true; queued > 0; first = false) {
+    solid.root_field(x.data(), y.data(), z.data(), queued, f.data());
+    evaluations += queued;
+    std::size_t next = 0;
+    for (std::size_t q = 0; q < queued; ++q) {
+      State s = st[q];
+      const Segment& sg = seg[s.seg];
+      if (first && s.plane && f[q] <= 0) {
+        out[s.seg] = lerp(sg.a, sg.b, s.t);
         continue;
       }
-      double t = smooth ? (s.glo * s.hi - s.ghi * s.lo) / (s.glo - s.ghi) : 0.5 * (s.lo + s.hi);
-      const double margin = 0.01 * (s.hi - s.lo);
-      if (!(t > s.lo + margin && t < s.hi - margin))
-        t = std::clamp(t, s.lo + margin, s.hi - margin);
-      queue(i, t);
-    }
-    if (queued == 0) break;
-    evaluate();
-    active.clear();
-    for (std::size_t q = 0; q < queued; ++q) {
-      const std::size_t i = which[q];
-      State& s = st[i];
       ++s.steps;
-      const bool a_inside = seg[i].fa <= 0;
-      const bool moves_lo = (f[q] <= 0) == a_inside;
-      if (moves_lo) {
+      if ((f[q] <= 0) == s.a_inside) {
         s.lo = s.t;
         s.glo = f[q];
         s.lo_known = true;
-        if (s.side == -1) s.ghi *= 0.5f;  // hi kept twice
-        s.side = -1;
+        if (!first && s.side == -1) s.ghi *= 0.5f;  // hi kept twice
+        if (!first) s.side = -1;
       } else {
         s.hi = s.t;
         s.ghi = f[q];
         s.hi_known = true;
-        if (s.side == 1) s.glo *= 0.5f;
-        s.side = 1;
+        if (!first && s.side == 1) s.glo *= 0.5f;
+        if (!first) s.side = 1;
       }
-      active.push_back(i);
+      const bool smooth = s.lo_known && s.hi_known && std::abs(s.glo) < kFar &&
+                          std::abs(s.ghi) < kFar && s.glo != s.ghi;
+      double t = smooth ? (s.glo * s.hi - s.ghi * s.lo) / (s.glo - s.ghi) : 0.5 * (s.lo + s.hi);
+      if (s.steps >= max_steps || !(s.hi - s.lo > tol_t)) {
+        if (!(t >= s.lo && t <= s.hi)) t = 0.5 * (s.lo + s.hi);
+        // Never on a grid point: a vertex there would coincide with the vertices of the other
+        // edges of that point and leave zero-area triangles.
+        out[s.seg] = lerp(sg.a, sg.b, std::clamp(t, kEndMargin, 1 - kEndMargin));
+        continue;
+      }
+      const double margin = 0.01 * (s.hi - s.lo);
+      if (!(t > s.lo + margin && t < s.hi - margin))
+        t = std::clamp(t, s.lo + margin, s.hi - margin);
+      s.t = t;
+      st[next] = s;
+      place(next, s);
+      ++next;
     }
+    queued = next;
   }
   return evaluations;
 }
