@@ -132,6 +132,33 @@ bool on_upper_face(int code) {
   return p / 81 == kBrick || (p / 9) % 9 == kBrick || p % 9 == kBrick;
 }
 
+// What the first pass reads of the cube: by the corners inside (bit d for corner d), the
+// edges that cross (bit e for edge e); each edge's code less that of its cell's lowest corner's
+// first edge; the codes on the brick's upper faces (the neighbours' vertices).
+struct EdgeTables {
+  std::uint16_t crossing[256];
+  int offset[12];
+  Bits<kEdgeCodes> upper;
+};
+
+EdgeTables edge_tables() {
+  const CubeTables& t = cube();
+  EdgeTables et{};
+  for (int inside = 0; inside < 256; ++inside) {
+    et.crossing[inside] = 0;
+    for (int e = 0; e < 12; ++e) {
+      const int d0 = t.edge_corner[e], d1 = d0 | (1 << t.edge_axis[e]);
+      if (((inside >> d0) & 1) != ((inside >> d1) & 1))
+        et.crossing[inside] = static_cast<std::uint16_t>(et.crossing[inside] | (1u << e));
+    }
+  }
+  const int zero[3] = {0, 0, 0};
+  for (int e = 0; e < 12; ++e) et.offset[e] = code_of(t, zero, e);
+  for (int code = 0; code < kEdgeCodes; ++code)
+    if (on_upper_face(code)) et.upper.set(code);
+  return et;
+}
+
 // BrickNeighbours::find, remembered by edge code (each vertex is a corner of up to four cells),
 // in a table of the thread's that is never cleared: an entry counts when it carries this
 // lookup's stamp.
@@ -193,7 +220,7 @@ std::pair<int, std::size_t> BrickNeighbours::find(int code) const {
 
 void brick_vertices(const Brick* const* bricks, std::size_t n, const Solid& solid,
                     const GridGeometry& geo, const BrickMeshOptions& opts, BrickVertices* out) {
-  const CubeTables& t = cube();
+  static const EdgeTables et = edge_tables();
   thread_local std::vector<Segment> segs;
   thread_local std::vector<Pos> where;
   segs.clear();
@@ -208,26 +235,27 @@ void brick_vertices(const Brick* const* bricks, std::size_t n, const Solid& soli
                  geo.origin[1] + (base[1] + lj) * geo.voxel,
                  geo.origin[2] + (base[2] + lk) * geo.voxel};
     };
-    // 1. The crossing edges of the surface cells that the brick owns, each once.
+    // 1. The crossing edges of the surface cells that the brick owns, each once, in code
+    // order: marked in a set of codes, then read from it.
     const Values values(br);
     Bits<kEdgeCodes> seen;
     std::vector<std::uint16_t>& edges = o.codes;
     for (int w = 0; w < kBrickCells / 64; ++w)
       for (std::uint64_t bits = br.surface.w[w]; bits; bits &= bits - 1) {
         const int c = w * 64 + __builtin_ctzll(bits);
-        const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
         float v[8];
         values.cell(c, v);
-        for (int e = 0; e < 12; ++e) {
-          const int d0 = t.edge_corner[e], d1 = d0 | (1 << t.edge_axis[e]);
-          if ((v[d0] <= 0) == (v[d1] <= 0)) continue;
-          const int code = code_of(t, ci, e);
-          if (seen.test(code) || on_upper_face(code)) continue;
-          seen.set(code);
-          edges.push_back(static_cast<std::uint16_t>(code));
-        }
+        int inside = 0;
+        for (int d = 0; d < 8; ++d) inside |= (v[d] <= 0) << d;
+        const int first = 3 * point_index(c / 64, (c / 8) % 8, c % 8);
+        for (unsigned m = et.crossing[inside]; m; m &= m - 1)
+          seen.set(first + et.offset[__builtin_ctz(m)]);
       }
-    std::sort(edges.begin(), edges.end());
+    seen = seen & ~et.upper;
+    edges.reserve(seen.count());
+    for (int w = 0; w < Bits<kEdgeCodes>::kWords; ++w)
+      for (std::uint64_t bits = seen.w[w]; bits; bits &= bits - 1)
+        edges.push_back(static_cast<std::uint16_t>(w * 64 + __builtin_ctzll(bits)));
     // 2. Their segments, refined with the group's.
     for (const int code : edges) {
       const int axis = code % 3, p = code / 3;
@@ -275,8 +303,14 @@ BrickPlan plan_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
   std::vector<std::vector<std::uint8_t>> options;
   std::vector<std::pair<double, std::size_t>> by_area;
   const Values values(br);
-  for (int c = 0; c < kBrickCells; ++c) {
-    if (!br.surface.test(c)) continue;
+  // The surface cells, read from their bit set.
+  int surface[kBrickCells], cells = 0;
+  for (int w = 0; w < kBrickCells / 64; ++w)
+    for (std::uint64_t bits = br.surface.w[w]; bits; bits &= bits - 1)
+      surface[cells++] = w * 64 + __builtin_ctzll(bits);
+  out.cells.reserve(cells);
+  for (int k = 0; k < cells; ++k) {
+    const int c = surface[k];
     const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
     float v[8];
     values.cell(c, v);
@@ -356,7 +390,10 @@ BrickPlan plan_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
 
 BrickFaces brick_triangles(const BrickPlan& plan, const MeshTarget& target) {
   const CubeTables& t = cube();
-  BrickFaces out;
+  // The border lists grow in the thread's scratch and are copied out at their size.
+  thread_local BrickFaces scratch;
+  BrickFaces& out = scratch;
+  for (auto& list : out.border) list.clear();
   Lookup lookup(target.around);
   auto vertex_of = [&](int code) {
     const auto [dir, index] = lookup(code);
@@ -397,7 +434,9 @@ BrickFaces brick_triangles(const BrickPlan& plan, const MeshTarget& target) {
   }
   if (face != target.face_base + plan.triangles)
     throw std::logic_error("extract: the second pass made another number of triangles");
-  return out;
+  BrickFaces faces;
+  for (int d = 0; d < 6; ++d) faces.border[d].assign(out.border[d].begin(), out.border[d].end());
+  return faces;
 }
 
 }  // namespace qjulia::detail
