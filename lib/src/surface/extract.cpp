@@ -61,30 +61,29 @@ struct BrickRange {
   }
 };
 
-// Each face of a brick (tri[0 .. faces)): its local component (that of its first corner's slot,
-// written to face_comp), its area and signed volume relative to `origin` (added to its
-// component's), and whether it is degenerate.
-template <class PositionOf>
+// Each face of a brick (tri[0 .. faces), corner: each face corner's local slot): its local
+// component (that of its first corner's slot, written to face_comp), its area and signed volume
+// relative to the origin (added to its component's), and whether it is degenerate. `at`: each
+// slot's position relative to the origin.
 void measure_faces(const std::array<std::uint32_t, 3>* tri, std::size_t faces,
                    const std::uint32_t* corner, const std::vector<std::uint32_t>& comp_of,
-                   const PositionOf& position_of, const std::array<double, 3>& origin,
-                   std::uint32_t* face_comp, BrickMeasure& bm) {
+                   const std::array<double, 3>* at, std::uint32_t* face_comp, BrickMeasure& bm) {
   for (std::size_t f = 0; f < faces; ++f) {
     const auto& t = tri[f];
     const std::uint32_t c = comp_of[corner[3 * f]];
     face_comp[f] = c;
-    double p[3][3];
-    for (int k = 0; k < 3; ++k)
-      for (int a = 0; a < 3; ++a) p[k][a] = static_cast<double>(position_of(t[k])[a]) - origin[a];
-    const double e1[3] = {p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]};
-    const double e2[3] = {p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]};
+    const std::array<double, 3>& p0 = at[corner[3 * f]];
+    const std::array<double, 3>& p1 = at[corner[3 * f + 1]];
+    const std::array<double, 3>& p2 = at[corner[3 * f + 2]];
+    const double e1[3] = {p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]};
+    const double e2[3] = {p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]};
     const double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
                          e1[0] * e2[1] - e1[1] * e2[0]};
     const double area = 0.5 * std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-    const double volume = (p[0][0] * (p[1][1] * p[2][2] - p[1][2] * p[2][1]) -
-                           p[0][1] * (p[1][0] * p[2][2] - p[1][2] * p[2][0]) +
-                           p[0][2] * (p[1][0] * p[2][1] - p[1][1] * p[2][0])) /
-                          6.0;
+    const double volume =
+        (p0[0] * (p1[1] * p2[2] - p1[2] * p2[1]) - p0[1] * (p1[0] * p2[2] - p1[2] * p2[0]) +
+         p0[2] * (p1[0] * p2[1] - p1[1] * p2[0])) /
+        6.0;
     BrickMeasure::Comp& cm = bm.comps[c];
     ++cm.faces;
     cm.area += area;
@@ -205,6 +204,7 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
   // a foreign vertex is a corner of about six faces).
   thread_local std::vector<std::uint32_t> foreign, corner, comp_of;
   thread_local std::vector<std::array<std::uint32_t, 2>> table;  // {vertex + 1, slot}; 0: empty
+  thread_local std::vector<std::array<double, 3>> local_at;
   thread_local std::vector<std::size_t> taken;                   // its entries in use
   thread_local detail::UnionFind uf;
   // The entries the last brick filled are emptied first (also after an exception left them),
@@ -253,6 +253,9 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
     comp_of[s] = comp_of[root];
   }
   bm.owned_comp.assign(comp_of.begin(), comp_of.begin() + r.edges);
+  // Each slot's position relative to the origin, converted once (a vertex is a corner of
+  // about six faces).
+  local_at.resize(slots);
   for (std::size_t v = 0; v < owned; ++v) {
     BrickMeasure::Comp& c = bm.comps[comp_of[v]];
     ++c.vertices;
@@ -260,11 +263,15 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
     for (int a = 0; a < 3; ++a) {
       c.lo[a] = std::min<double>(c.lo[a], p[a]);
       c.hi[a] = std::max<double>(c.hi[a], p[a]);
+      local_at[v][a] = static_cast<double>(p[a]) - origin[a];
     }
   }
-  for (std::size_t f = 0; f < foreign.size(); ++f)
+  for (std::size_t f = 0; f < foreign.size(); ++f) {
     bm.links.push_back({foreign[f], comp_of[owned + f]});
-  measure_faces(tri, r.faces, corner.data(), comp_of, position_of, origin, face_comp, bm);
+    const auto& p = position_of(foreign[f]);
+    for (int a = 0; a < 3; ++a) local_at[owned + f][a] = static_cast<double>(p[a]) - origin[a];
+  }
+  measure_faces(tri, r.faces, corner.data(), comp_of, local_at.data(), face_comp, bm);
   // The half-edges: each edge inside the brick has its two half-edges here, opposite; one
   // alone must be on a brick face (`border`, in the same direction), paired with the
   // neighbour's later.
@@ -758,10 +765,13 @@ struct BrickMesher {
         auto key = [](const std::array<std::uint32_t, 2>& e) {
           return std::make_pair(std::min(e[0], e[1]), std::max(e[0], e[1]));
         };
-        std::vector<std::array<std::uint32_t, 2>> up = faces[i].border[2 * axis + 1];
+        // Each list is paired once (this brick's +axis one with its neighbour's -axis one), so
+        // both are sorted in place.
+        std::vector<std::array<std::uint32_t, 2>>& up = faces[i].border[2 * axis + 1];
         const std::ptrdiff_t n = neighbour(i, axis == 0, axis == 1, axis == 2);
-        std::vector<std::array<std::uint32_t, 2>> down;
-        if (n >= 0) down = faces[n].border[2 * axis];
+        std::vector<std::array<std::uint32_t, 2>> no_list;
+        std::vector<std::array<std::uint32_t, 2>>& down =
+            n >= 0 ? faces[n].border[2 * axis] : no_list;
         auto less = [&](const auto& a, const auto& b) { return key(a) < key(b); };
         std::sort(up.begin(), up.end(), less);
         std::sort(down.begin(), down.end(), less);
