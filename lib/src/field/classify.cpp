@@ -235,10 +235,29 @@ Solid Solid::at_resolution(int resolution) const {
   return s;
 }
 
-double Solid::constraint(double x, double y, double z) const {
-  const double p[3] = {x, y, z};
+namespace {
+
+// The largest of three, the first of equals (as std::max({a, b, c})).
+inline double first_max(double a, double b, double c) {
+  double r = a;
+  if (r < b) r = b;
+  if (r < c) r = c;
+  return r;
+}
+
+// The box's part of Solid::constraint(): how far (x, y, z) is outside [lo, hi].
+inline double box_constraint(const std::array<double, 3>& lo, const std::array<double, 3>& hi,
+                             double x, double y, double z) {
   double c = -std::numeric_limits<double>::infinity();
-  for (int a = 0; a < 3; ++a) c = std::max({c, min_[a] - p[a], p[a] - max_[a]});
+  c = first_max(c, lo[0] - x, x - hi[0]);
+  c = first_max(c, lo[1] - y, y - hi[1]);
+  return first_max(c, lo[2] - z, z - hi[2]);
+}
+
+}  // namespace
+
+double Solid::constraint(double x, double y, double z) const {
+  double c = box_constraint(min_, max_, x, y, z);
   for (const ClipPlane& cp : clip_)
     c = std::max(c, cp.normal[0] * x + cp.normal[1] * y + cp.normal[2] * z - cp.d);
   return c;
@@ -288,7 +307,7 @@ std::uint64_t Solid::values(const double* x, const double* y, const double* z, s
     c.resize(n);
     bool all_in_box = true;
     for (std::size_t i = 0; i < n; ++i) {
-      c[i] = constraint(x[i], y[i], z[i]);
+      c[i] = box_constraint(min_, max_, x[i], y[i], z[i]);
       all_in_box = all_in_box && c[i] <= 0;
     }
     if (all_in_box) {
