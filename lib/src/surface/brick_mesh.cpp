@@ -212,10 +212,18 @@ std::pair<int, std::size_t> BrickNeighbours::find(int code) const {
                             l[2] - kBrick * (dir >> 2), code % 3);
   const std::vector<std::uint16_t>* list = codes[dir];
   if (!list) throw std::logic_error("extract: a neighbour brick is missing");
-  const auto it = std::lower_bound(list->begin(), list->end(), own);
-  if (it == list->end() || *it != own)
-    throw std::logic_error("extract: a neighbour brick lacks a shared vertex");
-  return {dir, static_cast<std::size_t>(it - list->begin())};
+  // Binary search without branches (the halves are taken by a conditional move): the codes of
+  // a brick are few, and which half holds a code is unpredictable.
+  const std::uint16_t* at = list->data();
+  std::size_t n = list->size();
+  if (n == 0) throw std::logic_error("extract: a neighbour brick lacks a shared vertex");
+  while (n > 1) {
+    const std::size_t half = n / 2;
+    at = at[half - 1] < own ? at + half : at;
+    n -= half;
+  }
+  if (*at != own) throw std::logic_error("extract: a neighbour brick lacks a shared vertex");
+  return {dir, static_cast<std::size_t>(at - list->data())};
 }
 
 void brick_vertices(const Brick* const* bricks, std::size_t n, const Solid& solid,
