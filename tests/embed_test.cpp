@@ -1,14 +1,15 @@
 // triangles_cross() certifies most answers in floating point before CGAL's exact predicates;
 // whatever it answers must be what the exact predicates alone answer.
+#include "surface/embed.h"
+
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/intersections.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <random>
-
-#include "surface/embed.h"
 
 namespace qjulia::detail {
 namespace {
@@ -23,13 +24,13 @@ Point point(const P& p) { return Point(p[0], p[1], p[2]); }
 bool exact_cross(const Triangle& a, const Triangle& b) {
   const Point pa[3] = {point(a[0]), point(a[1]), point(a[2])};
   const Point pb[3] = {point(b[0]), point(b[1]), point(b[2])};
-  int at[3] = {-1, -1, -1}, shared = 0;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j)
-      if (a[i] == b[j]) {
-        at[i] = j;
-        ++shared;
-      }
+  // a's corner i is b's corner at[i], or -1 (the corners of each are distinct).
+  int at[3], shared = 0;
+  for (int i = 0; i < 3; ++i) {
+    const auto it = std::find(b.begin(), b.end(), a[i]);
+    at[i] = it == b.end() ? -1 : static_cast<int>(it - b.begin());
+    shared += at[i] >= 0;
+  }
   if (shared >= 3) return true;
   if (shared == 2) {
     int p = 0;
