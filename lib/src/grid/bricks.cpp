@@ -453,20 +453,24 @@ struct BrickSampler::Impl {
       }
   }
 
+  // The known-point sets of the 26 bricks around one (index as Brick::around) are scattered
+  // over the heap: their cache lines are all asked for before any is read.
+  static void prefetch_known(Brick* const* around) {
+    for (int o = 0; o < 27; ++o)
+      if (o != 13 && around[o]) {
+        const char* known = reinterpret_cast<const char*>(&around[o]->known);
+        __builtin_prefetch(known);
+        __builtin_prefetch(known + sizeof(Bits<kBrickPoints>) - 1);
+      }
+  }
+
   // The points of the brick that one of its neighbours knows: their known points on the
   // faces they share with it, in its numbering.
   Bits<kBrickPoints> neighbours_know(const Around& a) const {
     const PointTables& t = point_tables();
     Bits<kBrickPoints> avail;
     if (!map) return avail;
-    // The neighbours' bit sets are scattered over the heap: their cache lines all asked for
-    // first, then read.
-    for (int o = 0; o < 27; ++o)
-      if (o != 13 && a.n[o]) {
-        const char* known = reinterpret_cast<const char*>(&a.n[o]->known);
-        __builtin_prefetch(known);
-        __builtin_prefetch(known + sizeof(Bits<kBrickPoints>) - 1);
-      }
+    prefetch_known(a.n);
     for (int o = 0; o < 27; ++o)
       if (o != 13 && a.n[o])
         avail = avail | shifted(a.n[o]->known & t.shared_with[o], -t.offset[o]);
@@ -505,15 +509,8 @@ struct BrickSampler::Impl {
   void flag8(Brick* const* group, std::size_t n, Batch& b, char* hit) {
     thread_local std::vector<std::array<float, 8>> values;
     if (values.size() < n) values.resize(n);
-    // The neighbours' known-point sets, where the corners are looked for, are scattered over
-    // the heap: their cache lines all asked for first, then read.
-    for (std::size_t i = 0; i < n; ++i)
-      for (int o = 0; o < 27; ++o)
-        if (const Brick* nb = group[i]->around[o]; nb && o != 13) {
-          const char* known = reinterpret_cast<const char*>(&nb->known);
-          __builtin_prefetch(known);
-          __builtin_prefetch(known + sizeof(Bits<kBrickPoints>) - 1);
-        }
+    // The corners are looked for in the neighbours' known-point sets.
+    for (std::size_t i = 0; i < n; ++i) prefetch_known(group[i]->around);
     for (std::size_t i = 0; i < n; ++i) {
       Brick& br = *group[i];
       const Around a = around(br);
@@ -1432,7 +1429,7 @@ struct BrickSampler::Sampling {
   // list keeps it sorted: the dilation is three merges of three sorted lists (z, then y, then
   // x), not a sort of 27 keys a hit.
   std::vector<std::uint64_t> dilate_hits(const std::vector<std::uint64_t>& hits) const {
-    constexpr std::uint64_t kField = (std::uint64_t{1} << 21) - 1;
+    constexpr std::uint64_t kField = (std::uint64_t{1} << kKeyBits) - 1;
     // The union of in - unit, in and in + unit (a key whose field is 0 has no lower neighbour).
     auto spread = [](const std::vector<std::uint64_t>& in, int shift) {
       const std::uint64_t unit = std::uint64_t{1} << shift;
@@ -1462,7 +1459,7 @@ struct BrickSampler::Sampling {
       std::sort(sorted.begin(), sorted.end());
     }
     std::vector<std::uint64_t> refined8 =
-        spread(spread(spread(in_order ? hits : sorted, 0), 21), 42);
+        spread(spread(spread(in_order ? hits : sorted, 0), kKeyBits), 2 * kKeyBits);
     refined8.erase(std::remove_if(refined8.begin(), refined8.end(),
                                   [&](std::uint64_t key) {
                                     const BrickCoord c = brick_of_key(key);

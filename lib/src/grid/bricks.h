@@ -26,15 +26,17 @@ struct BrickCoord {
   int x = 0, y = 0, z = 0;
 };
 
+/// The bits of each coordinate's field in a brick key (z lowest, then y, then x).
+constexpr int kKeyBits = 21;
 /// A 64-bit key per brick, ordered x-major; bricks from -1 to 2^21 - 2 per axis.
 inline std::uint64_t brick_key(int bx, int by, int bz) {
-  return (static_cast<std::uint64_t>(bx + 1) << 42) | (static_cast<std::uint64_t>(by + 1) << 21) |
-         static_cast<std::uint64_t>(bz + 1);
+  return (static_cast<std::uint64_t>(bx + 1) << (2 * kKeyBits)) |
+         (static_cast<std::uint64_t>(by + 1) << kKeyBits) | static_cast<std::uint64_t>(bz + 1);
 }
 inline BrickCoord brick_of_key(std::uint64_t key) {
-  constexpr std::uint64_t m = (std::uint64_t{1} << 21) - 1;
-  return {static_cast<int>((key >> 42) & m) - 1, static_cast<int>((key >> 21) & m) - 1,
-          static_cast<int>(key & m) - 1};
+  constexpr std::uint64_t m = (std::uint64_t{1} << kKeyBits) - 1;
+  return {static_cast<int>((key >> (2 * kKeyBits)) & m) - 1,
+          static_cast<int>((key >> kKeyBits) & m) - 1, static_cast<int>(key & m) - 1};
 }
 
 /// Index of local point (i, j, k), 0..8 each.
