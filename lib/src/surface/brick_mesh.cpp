@@ -399,8 +399,7 @@ BrickPlan plan_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
 BrickFaces brick_triangles(const BrickPlan& plan, const MeshTarget& target) {
   const CubeTables& t = cube();
   // The border lists grow in the thread's scratch and are copied out at their size.
-  thread_local BrickFaces scratch;
-  BrickFaces& out = scratch;
+  thread_local BrickFaces out;
   for (auto& list : out.border) list.clear();
   Lookup lookup(target.around);
   auto vertex_of = [&](int code) {

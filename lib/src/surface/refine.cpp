@@ -98,13 +98,13 @@ std::uint64_t refine_segments(const Solid& solid, const Segment* seg, std::size_
         s.lo = s.t;
         s.glo = f[q];
         s.lo_known = true;
-        if (!first && s.side == -1) s.ghi *= 0.5f;  // hi kept twice
+        if (s.side == -1) s.ghi *= 0.5f;  // hi kept twice (never on the first step)
         if (!first) s.side = -1;
       } else {
         s.hi = s.t;
         s.ghi = f[q];
         s.hi_known = true;
-        if (!first && s.side == 1) s.glo *= 0.5f;
+        if (s.side == 1) s.glo *= 0.5f;
         if (!first) s.side = 1;
       }
       const bool smooth = s.lo_known && s.hi_known && std::abs(s.glo) < kFar &&
