@@ -28,17 +28,32 @@ constexpr std::size_t kGroup = 32;
 
 int floor_div(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
 
-// Points to evaluate, with where their values go.
+// The points queued for one call of the field: their coordinates and where each value goes.
+// The arrays only grow (room is made before a run of points is queued, then each is written
+// in place); `n` points are queued.
 struct Batch {
   std::vector<double> x, y, z;
   std::vector<float> out;
   std::vector<float*> dest;
-  void clear() {
-    x.clear();
-    y.clear();
-    z.clear();
-    dest.clear();
+  std::size_t n = 0;
+  // Room for `more` points after the queued ones.
+  void reserve(std::size_t more) {
+    if (n + more <= x.size()) return;
+    const std::size_t size = std::max(2 * x.size(), n + more);
+    x.resize(size);
+    y.resize(size);
+    z.resize(size);
+    dest.resize(size);
   }
+  // Queues a point; reserve() made room for it.
+  void put(double px, double py, double pz, float* to) {
+    x[n] = px;
+    y[n] = py;
+    z[n] = pz;
+    dest[n] = to;
+    ++n;
+  }
+  void clear() { n = 0; }
 };
 
 // Whether a set of samples makes its cell one to refine: the samples differ in sign, or the
@@ -286,15 +301,14 @@ struct BrickSampler::Impl {
       *dest = v;
       return true;
     }
-    b.x.push_back(geo.origin[0] + i * geo.voxel);
-    b.y.push_back(geo.origin[1] + j * geo.voxel);
-    b.z.push_back(geo.origin[2] + k * geo.voxel);
-    b.dest.push_back(dest);
+    b.reserve(1);
+    b.put(geo.origin[0] + i * geo.voxel, geo.origin[1] + j * geo.voxel,
+          geo.origin[2] + k * geo.voxel, dest);
     return false;
   }
 
   void run(Batch& b) {
-    const std::size_t n = b.x.size();
+    const std::size_t n = b.n;
     if (n == 0) return;
     b.out.resize(n);
     solid.field(b.x.data(), b.y.data(), b.z.data(), n, b.out.data());
@@ -440,16 +454,15 @@ struct BrickSampler::Impl {
         want.w[p >> 6] &= ~(std::uint64_t{1} << (p & 63));
       }
     }
+    b.reserve(want.count());
     for (int w = 0; w < Pts::kWords; ++w)
       for (std::uint64_t bits = want.w[w]; bits; bits &= bits - 1) {
         const int p = w * 64 + __builtin_ctzll(bits);
         const int g[3] = {base[0] + t.at[p][0], base[1] + t.at[p][1], base[2] + t.at[p][2]};
         if (!real && virtual_value(geo, solid, g[0], g[1], g[2], br.slot(p))) continue;
         // From the global index, as every other path computes a grid point.
-        b.x.push_back(geo.origin[0] + g[0] * geo.voxel);
-        b.y.push_back(geo.origin[1] + g[1] * geo.voxel);
-        b.z.push_back(geo.origin[2] + g[2] * geo.voxel);
-        b.dest.push_back(br.slot(p));
+        b.put(geo.origin[0] + g[0] * geo.voxel, geo.origin[1] + g[1] * geo.voxel,
+              geo.origin[2] + g[2] * geo.voxel, br.slot(p));
       }
   }
 
@@ -673,10 +686,12 @@ struct BrickSampler::Impl {
     v.a = around(br);
     br.unpack();
     // What the neighbours asked for since the last visit.
-    v.seed4 = br.inbox4.exchange(0);
+    // (An empty inbox word is only read: an exchange is a locked operation.)
+    auto take = [](auto& box) { return box.load(std::memory_order_relaxed) ? box.exchange(0) : 0; };
+    v.seed4 = take(br.inbox4);
     v.frontier_cells.clear();
     for (int w = 0; w < kBrickCells / 64; ++w)
-      for (std::uint64_t bits = br.inbox_cells[w].exchange(0); bits; bits &= bits - 1)
+      for (std::uint64_t bits = take(br.inbox_cells[w]); bits; bits &= bits - 1)
         v.frontier_cells.push_back(static_cast<std::uint16_t>(w * 64 + __builtin_ctzll(bits)));
     v.real = all_real(br);
     v.avail = neighbours_know(v.a);
@@ -1307,7 +1322,7 @@ struct BrickSampler::Sampling {
                      &centre[lattice_index(i, j, k)]);
         }
     // In parallel chunks.
-    const std::size_t n = b.x.size();
+    const std::size_t n = b.n;
     b.out.resize(n);
     constexpr std::size_t kChunk = 4096;
     tbb::parallel_for(std::size_t{0}, (n + kChunk - 1) / kChunk, [&](std::size_t c) {
