@@ -223,9 +223,7 @@ void Brick::unpack() {
   full.make(kBrickPoints);
   if (packed) {
     std::size_t n = 0;
-    for (int w = 0; w < (kBrickPoints + 63) / 64; ++w)
-      for (std::uint64_t bits = known.w[w]; bits; bits &= bits - 1)
-        full[w * 64 + __builtin_ctzll(bits)] = packed[n++];
+    known.for_each([&](int p) { full[p] = packed[n++]; });
     packed.reset();
   }
 }
@@ -237,8 +235,7 @@ void Brick::pack() {
   std::size_t k = 0;
   for (int w = 0; w < (kBrickPoints + 63) / 64; ++w) {
     rank[w] = static_cast<std::uint16_t>(k);
-    for (std::uint64_t bits = known.w[w]; bits; bits &= bits - 1)
-      packed[k++] = full[w * 64 + __builtin_ctzll(bits)];
+    for_each_bit(known.w[w], 64 * w, [&](int p) { packed[k++] = full[p]; });
   }
   full.reset();
 }
@@ -249,9 +246,7 @@ void Brick::known_values(std::vector<float>& out) const {
     out.assign(packed.get(), packed.get() + known.count());
     return;
   }
-  for (int w = 0; w < (kBrickPoints + 63) / 64; ++w)
-    for (std::uint64_t bits = known.w[w]; bits; bits &= bits - 1)
-      out.push_back(full[w * 64 + __builtin_ctzll(bits)]);
+  known.for_each([&](int p) { out.push_back(full[p]); });
 }
 
 void Brick::assign(const Bits<kBrickPoints>& known_points, const float* values) {
@@ -439,31 +434,27 @@ struct BrickSampler::Impl {
       // scattered over the heap), then the values.
       thread_local std::vector<std::pair<int, const float*>> found;
       found.clear();
-      for (int w = 0; w < Pts::kWords; ++w)
-        for (std::uint64_t bits = shared.w[w]; bits; bits &= bits - 1) {
-          const int p = w * 64 + __builtin_ctzll(bits);
-          const int g[3] = {base[0] + t.at[p][0], base[1] + t.at[p][1], base[2] + t.at[p][2]};
-          if (g[0] < 0 || g[1] < 0 || g[2] < 0) continue;
-          if (const float* at = locate(br, a, g)) {
-            __builtin_prefetch(at);
-            found.emplace_back(p, at);
-          }
+      shared.for_each([&](int p) {
+        const int g[3] = {base[0] + t.at[p][0], base[1] + t.at[p][1], base[2] + t.at[p][2]};
+        if (g[0] < 0 || g[1] < 0 || g[2] < 0) return;
+        if (const float* at = locate(br, a, g)) {
+          __builtin_prefetch(at);
+          found.emplace_back(p, at);
         }
+      });
       for (const auto& [p, at] : found) {
         *br.slot(p) = *at;
         want.w[p >> 6] &= ~(std::uint64_t{1} << (p & 63));
       }
     }
     b.reserve(want.count());
-    for (int w = 0; w < Pts::kWords; ++w)
-      for (std::uint64_t bits = want.w[w]; bits; bits &= bits - 1) {
-        const int p = w * 64 + __builtin_ctzll(bits);
-        const int g[3] = {base[0] + t.at[p][0], base[1] + t.at[p][1], base[2] + t.at[p][2]};
-        if (!real && virtual_value(geo, solid, g[0], g[1], g[2], br.slot(p))) continue;
-        // From the global index, as every other path computes a grid point.
-        b.put(geo.origin[0] + g[0] * geo.voxel, geo.origin[1] + g[1] * geo.voxel,
-              geo.origin[2] + g[2] * geo.voxel, br.slot(p));
-      }
+    want.for_each([&](int p) {
+      const int g[3] = {base[0] + t.at[p][0], base[1] + t.at[p][1], base[2] + t.at[p][2]};
+      if (!real && virtual_value(geo, solid, g[0], g[1], g[2], br.slot(p))) return;
+      // From the global index, as every other path computes a grid point.
+      b.put(geo.origin[0] + g[0] * geo.voxel, geo.origin[1] + g[1] * geo.voxel,
+            geo.origin[2] + g[2] * geo.voxel, br.slot(p));
+    });
   }
 
   // The known-point sets of the 26 bricks around one (index as Brick::around) are scattered
@@ -643,8 +634,7 @@ struct BrickSampler::Impl {
       v.new2 = br.refine2 & ~br.done2;
       if (v.new2) {
         Pts want;
-        for (std::uint64_t bits = v.new2; bits; bits &= bits - 1)
-          want = want | point_tables().level1[__builtin_ctzll(bits)];
+        for_each_bit(v.new2, 0, [&](int c) { want = want | point_tables().level1[c]; });
         need_mask(br, v.a, want, b, v.real, &v.avail);
       }
     }
@@ -653,13 +643,12 @@ struct BrickSampler::Impl {
       Visit& v = visits[i];
       // Its crossing voxels start the closure.
       if (v.new2) {
-        for (int t = 0; t < 64; ++t) {
-          if (!(v.new2 >> t & 1)) continue;
+        for_each_bit(v.new2, 0, [&](int t) {
           const int o[3] = {(t / 16) * 2, ((t / 4) % 4) * 2, (t % 4) * 2};
           for (int r = 0; r < 8; ++r)
             v.frontier_cells.push_back(static_cast<std::uint16_t>(
                 cell_index(o[0] + (r & 1), o[1] + ((r >> 1) & 1), o[2] + (r >> 2))));
-        }
+        });
         v.br->done2 |= v.new2;
       }
       close_start(v);
@@ -691,8 +680,8 @@ struct BrickSampler::Impl {
     v.seed4 = take(br.inbox4);
     v.frontier_cells.clear();
     for (int w = 0; w < kBrickCells / 64; ++w)
-      for (std::uint64_t bits = take(br.inbox_cells[w]); bits; bits &= bits - 1)
-        v.frontier_cells.push_back(static_cast<std::uint16_t>(w * 64 + __builtin_ctzll(bits)));
+      for_each_bit(take(br.inbox_cells[w]), 64 * w,
+                   [&](int c) { v.frontier_cells.push_back(static_cast<std::uint16_t>(c)); });
     v.real = all_real(br);
     v.avail = neighbours_know(v.a);
     // Level 4: the 27 points at stride 4.
@@ -787,18 +776,12 @@ struct BrickSampler::Impl {
           for (int k = lo[2]; k <= hi[2]; ++k) v.valid.set(point_index(i, j, k));
     }
     auto to_point = [](int c) { return point_index(c / 64, (c / 8) % 8, c % 8); };
-    for (int w = 0; w < kBrickCells / 64; ++w) {
-      for (std::uint64_t bits = br.visited.w[w]; bits; bits &= bits - 1)
-        v.visited.set(to_point(w * 64 + __builtin_ctzll(bits)));
-      for (std::uint64_t bits = br.surface.w[w]; bits; bits &= bits - 1)
-        v.surface.set(to_point(w * 64 + __builtin_ctzll(bits)));
-    }
+    br.visited.for_each([&](int c) { v.visited.set(to_point(c)); });
+    br.surface.for_each([&](int c) { v.surface.set(to_point(c)); });
     for (std::uint16_t c : v.frontier_cells) v.frontier.set(to_point(c));
-    for (int w = 0; w < Pts::kWords; ++w)
-      for (std::uint64_t bits = br.known.w[w]; bits; bits &= bits - 1) {
-        const int p = w * 64 + __builtin_ctzll(bits);
-        if (br.get(p) <= 0) v.sign.set(p);
-      }
+    br.known.for_each([&](int p) {
+      if (br.get(p) <= 0) v.sign.set(p);
+    });
     v.closing = true;
   }
 
@@ -816,9 +799,7 @@ struct BrickSampler::Impl {
     for (int d = 0; d < 8; ++d) corners = corners | shifted(v.frontier, -kCorner[d]);
     corners = corners & ~br.known;
     v.queued.clear();
-    for (int w = 0; w < Pts::kWords; ++w)
-      for (std::uint64_t bits = corners.w[w]; bits; bits &= bits - 1)
-        v.queued.push_back(w * 64 + __builtin_ctzll(bits));
+    corners.for_each([&](int p) { v.queued.push_back(p); });
     need_mask(br, v.a, corners, b, v.real, &v.avail);
     return true;
   }
@@ -853,26 +834,24 @@ struct BrickSampler::Impl {
         if (!go.any()) continue;
         next = next | shifted(go, t ? -kStride[axis] : kStride[axis]);
         // Cells on the brick's face go to the neighbour.
-        for (int w = 0; w < Pts::kWords; ++w)
-          for (std::uint64_t bits = go.w[w]; bits; bits &= bits - 1) {
-            const int p = w * 64 + __builtin_ctzll(bits);
-            const auto& at = point_tables().at[p];
-            int n[3] = {at[0], at[1], at[2]};
-            if (n[axis] != (t ? kBrick - 1 : 0)) continue;
-            const int gn = base[axis] + n[axis] + (t ? 1 : -1);
-            if (gn < -1 || gn >= geo.points[axis]) continue;
-            int nb[3] = {br.at.x, br.at.y, br.at.z};
-            nb[axis] += t ? 1 : -1;
-            n[axis] = t ? 0 : kBrick - 1;
-            const std::uint16_t nc = static_cast<std::uint16_t>(cell_index(n[0], n[1], n[2]));
-            // A neighbour that has looked at the cell needs no request.
-            const Brick* known = v.a.n[(nb[0] - br.at.x + 1) * 9 + (nb[1] - br.at.y + 1) * 3 +
-                                       (nb[2] - br.at.z + 1)];
-            if (known && known->visited.test(nc)) continue;
-            Request r{brick_key(nb[0], nb[1], nb[2])};
-            r.cell = nc;
-            deliver(v.a, br, r, out);
-          }
+        go.for_each([&](int p) {
+          const auto& at = point_tables().at[p];
+          int n[3] = {at[0], at[1], at[2]};
+          if (n[axis] != (t ? kBrick - 1 : 0)) return;
+          const int gn = base[axis] + n[axis] + (t ? 1 : -1);
+          if (gn < -1 || gn >= geo.points[axis]) return;
+          int nb[3] = {br.at.x, br.at.y, br.at.z};
+          nb[axis] += t ? 1 : -1;
+          n[axis] = t ? 0 : kBrick - 1;
+          const std::uint16_t nc = static_cast<std::uint16_t>(cell_index(n[0], n[1], n[2]));
+          // A neighbour that has looked at the cell needs no request.
+          const Brick* known =
+              v.a.n[(nb[0] - br.at.x + 1) * 9 + (nb[1] - br.at.y + 1) * 3 + (nb[2] - br.at.z + 1)];
+          if (known && known->visited.test(nc)) return;
+          Request r{brick_key(nb[0], nb[1], nb[2])};
+          r.cell = nc;
+          deliver(v.a, br, r, out);
+        });
       }
     v.frontier = next;
   }
@@ -882,12 +861,8 @@ struct BrickSampler::Impl {
     Brick& br = *v.br;
     const PointTables& t = point_tables();
     auto cell = [&](int p) { return cell_index(t.at[p][0], t.at[p][1], t.at[p][2]); };
-    for (int w = 0; w < Pts::kWords; ++w) {
-      for (std::uint64_t bits = v.visited.w[w]; bits; bits &= bits - 1)
-        br.visited.set(cell(w * 64 + __builtin_ctzll(bits)));
-      for (std::uint64_t bits = v.surface.w[w]; bits; bits &= bits - 1)
-        br.surface.set(cell(w * 64 + __builtin_ctzll(bits)));
-    }
+    v.visited.for_each([&](int p) { br.visited.set(cell(p)); });
+    v.surface.for_each([&](int p) { br.surface.set(cell(p)); });
   }
 };
 

@@ -54,12 +54,23 @@ inline int popcount64(std::uint64_t x) {
 }
 
 /// A fixed-size bit set.
+/// Calls f(offset + i) for each set bit i of `bits`, lowest first.
+template <class F>
+inline void for_each_bit(std::uint64_t bits, int offset, F&& f) {
+  for (; bits; bits &= bits - 1) f(offset + __builtin_ctzll(bits));
+}
+
 template <int N>
 struct Bits {
   static constexpr int kWords = (N + 63) / 64;
   std::uint64_t w[kWords] = {};
   bool test(int i) const { return (w[i >> 6] >> (i & 63)) & 1u; }
   void set(int i) { w[i >> 6] |= std::uint64_t{1} << (i & 63); }
+  /// Calls f(i) for each member i, in increasing order.
+  template <class F>
+  void for_each(F&& f) const {
+    for (int k = 0; k < kWords; ++k) for_each_bit(w[k], 64 * k, f);
+  }
   bool any() const {
     for (std::uint64_t x : w)
       if (x) return true;

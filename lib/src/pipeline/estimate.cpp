@@ -67,16 +67,14 @@ double surface_extent(const SampledGrid& grid) {
   int lo[3] = {INT32_MAX, INT32_MAX, INT32_MAX}, hi[3] = {INT32_MIN, INT32_MIN, INT32_MIN};
   for (const auto& b : grid.impl().bricks) {
     if (!b->surface.any()) continue;
-    for (int w = 0; w < detail::kBrickCells / 64; ++w)
-      for (std::uint64_t bits = b->surface.w[w]; bits; bits &= bits - 1) {
-        const int c = w * 64 + __builtin_ctzll(bits);
-        const int g[3] = {b->at.x * detail::kBrick + c / 64, b->at.y * detail::kBrick + (c / 8) % 8,
-                          b->at.z * detail::kBrick + c % 8};
-        for (int a = 0; a < 3; ++a) {
-          lo[a] = std::min(lo[a], g[a]);
-          hi[a] = std::max(hi[a], g[a] + 1);
-        }
+    b->surface.for_each([&](int c) {
+      const int g[3] = {b->at.x * detail::kBrick + c / 64, b->at.y * detail::kBrick + (c / 8) % 8,
+                        b->at.z * detail::kBrick + c % 8};
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = std::min(lo[a], g[a]);
+        hi[a] = std::max(hi[a], g[a] + 1);
       }
+    });
   }
   if (hi[0] < lo[0]) return 0;  // no crossing cell
   long long side = 0;

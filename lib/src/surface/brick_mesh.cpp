@@ -20,9 +20,7 @@ class Values {
     thread_local std::vector<float> known;
     br.known_values(known);
     std::size_t n = 0;
-    for (int w = 0; w < (kBrickPoints + 63) / 64; ++w)
-      for (std::uint64_t bits = br.known.w[w]; bits; bits &= bits - 1)
-        v_[w * 64 + __builtin_ctzll(bits)] = known[n++];
+    br.known.for_each([&](int p) { v_[p] = known[n++]; });
   }
   float operator[](int p) const { return v_[p]; }
   // The corner values of local cell c.
@@ -248,22 +246,18 @@ void brick_vertices(const Brick* const* bricks, std::size_t n, const Solid& soli
     const Values values(br);
     Bits<kEdgeCodes> seen;
     std::vector<std::uint16_t>& edges = o.codes;
-    for (int w = 0; w < kBrickCells / 64; ++w)
-      for (std::uint64_t bits = br.surface.w[w]; bits; bits &= bits - 1) {
-        const int c = w * 64 + __builtin_ctzll(bits);
-        float v[8];
-        values.cell(c, v);
-        int inside = 0;
-        for (int d = 0; d < 8; ++d) inside |= (v[d] <= 0) << d;
-        const int first = 3 * point_index(c / 64, (c / 8) % 8, c % 8);
-        for (unsigned m = et.crossing[inside]; m; m &= m - 1)
-          seen.set(first + et.offset[__builtin_ctz(m)]);
-      }
+    br.surface.for_each([&](int c) {
+      float v[8];
+      values.cell(c, v);
+      int inside = 0;
+      for (int d = 0; d < 8; ++d) inside |= (v[d] <= 0) << d;
+      const int first = 3 * point_index(c / 64, (c / 8) % 8, c % 8);
+      for (unsigned m = et.crossing[inside]; m; m &= m - 1)
+        seen.set(first + et.offset[__builtin_ctz(m)]);
+    });
     seen = seen & ~et.upper;
     edges.reserve(seen.count());
-    for (int w = 0; w < Bits<kEdgeCodes>::kWords; ++w)
-      for (std::uint64_t bits = seen.w[w]; bits; bits &= bits - 1)
-        edges.push_back(static_cast<std::uint16_t>(w * 64 + __builtin_ctzll(bits)));
+    seen.for_each([&](int code) { edges.push_back(static_cast<std::uint16_t>(code)); });
     // 2. Their segments, refined with the group's.
     for (const int code : edges) {
       const int axis = code % 3, p = code / 3;
@@ -313,9 +307,7 @@ BrickPlan plan_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
   const Values values(br);
   // The surface cells, read from their bit set.
   int surface[kBrickCells], cells = 0;
-  for (int w = 0; w < kBrickCells / 64; ++w)
-    for (std::uint64_t bits = br.surface.w[w]; bits; bits &= bits - 1)
-      surface[cells++] = w * 64 + __builtin_ctzll(bits);
+  br.surface.for_each([&](int c) { surface[cells++] = c; });
   out.cells.reserve(cells);
   for (int k = 0; k < cells; ++k) {
     const int c = surface[k];
