@@ -53,13 +53,13 @@ inline int popcount64(std::uint64_t x) {
   return static_cast<int>((x * 0x0101010101010101ull) >> 56);
 }
 
-/// A fixed-size bit set.
 /// Calls f(offset + i) for each set bit i of `bits`, lowest first.
 template <class F>
 inline void for_each_bit(std::uint64_t bits, int offset, F&& f) {
   for (; bits; bits &= bits - 1) f(offset + __builtin_ctzll(bits));
 }
 
+/// A fixed-size bit set.
 template <int N>
 struct Bits {
   static constexpr int kWords = (N + 63) / 64;

@@ -252,8 +252,7 @@ void brick_vertices(const Brick* const* bricks, std::size_t n, const Solid& soli
       int inside = 0;
       for (int d = 0; d < 8; ++d) inside |= (v[d] <= 0) << d;
       const int first = 3 * point_index(c / 64, (c / 8) % 8, c % 8);
-      for (unsigned m = et.crossing[inside]; m; m &= m - 1)
-        seen.set(first + et.offset[__builtin_ctz(m)]);
+      for_each_bit(et.crossing[inside], 0, [&](int e) { seen.set(first + et.offset[e]); });
     });
     seen = seen & ~et.upper;
     edges.reserve(seen.count());
