@@ -140,6 +140,12 @@ int signs_of(const float v[8]) {
   return s;
 }
 
+int popcount(unsigned x) {
+  int n = 0;
+  for (; x; x &= x - 1) ++n;
+  return n;
+}
+
 // Faces with four crossings for each sign pattern.
 struct CaseTable {
   std::uint8_t ambiguous[256] = {};
@@ -155,6 +161,9 @@ struct CaseTable {
           changes += (signs >> fc[q] & 1) != (signs >> fc[(q + 1) % 4] & 1);
         if (changes == 4) ambiguous[signs] |= static_cast<std::uint8_t>(1u << f);
       }
+    std::size_t count = 0;  // a case for each answer of each ambiguous face
+    for (int signs = 0; signs < 256; ++signs) count += std::size_t{1} << popcount(ambiguous[signs]);
+    cases.reserve(count);
     for (int signs = 0; signs < 256; ++signs)
       for (int saddles = 0; saddles < 64; ++saddles) {
         if (saddles & ~ambiguous[signs]) continue;
