@@ -299,10 +299,11 @@ BrickPlan plan_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
     const std::array<float, 3>& p = around.positions[dir][index];
     return Pos{p[0], p[1], p[2]};
   };
-  // The triangles of the cell so far, and the candidates for one loop.
-  std::vector<Triangle> placed, fresh;
-  std::vector<std::vector<std::uint8_t>> options;
-  std::vector<std::pair<double, std::size_t>> by_area;
+  // The triangles of the cell so far, and the candidates for one loop (a thread's scratch,
+  // cleared before each use).
+  thread_local std::vector<Triangle> placed, fresh;
+  thread_local std::vector<std::vector<std::uint8_t>> options;
+  thread_local std::vector<std::pair<double, std::size_t>> by_area;
   const Values values(br);
   // The surface cells, read from their bit set.
   int surface[kBrickCells], cells = 0;

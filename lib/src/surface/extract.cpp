@@ -266,6 +266,7 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
       local_at[v][a] = static_cast<double>(p[a]) - origin[a];
     }
   }
+  bm.links.reserve(foreign.size());
   for (std::size_t f = 0; f < foreign.size(); ++f) {
     bm.links.push_back({foreign[f], comp_of[owned + f]});
     const auto& p = position_of(foreign[f]);
