@@ -402,6 +402,73 @@ TEST(Kernel, SingleOperationMapsMatchTheScalarReferenceOnEveryTarget) {
   }
 }
 
+// The refinement values (Orbit::root: the extreme of the orbit's metric up to its decision) of
+// the kernel on every vector target against the scalar classifier's, at random points of the box
+// where F is well-conditioned (as check_against_reference): the same sign where |root| > 1e-6,
+// and within 1e-5 * max(1, |root|) (the scalar value is a float). Returns the points compared.
+int check_roots_against_scalar(const Params& p, int count, unsigned seed) {
+  const Classifier cls(p);
+  const detail::KernelSetup* k = cls.kernel();
+  EXPECT_NE(k, nullptr) << p.formula << ": the kernel should cover this formula";
+  if (!k) return 0;
+  std::mt19937_64 rng(seed);
+  std::vector<double> x, y, z, ref;
+  for (int i = 0; i < count; ++i) {
+    const double px = std::uniform_real_distribution<double>(p.bounds.min[0], p.bounds.max[0])(rng);
+    const double py = std::uniform_real_distribution<double>(p.bounds.min[1], p.bounds.max[1])(rng);
+    const double pz = std::uniform_real_distribution<double>(p.bounds.min[2], p.bounds.max[2])(rng);
+    const double f = reference_field<false>(p, px, py, pz);
+    if (std::abs(reference_field<true>(p, px, py, pz) - f) > 1e-11 * std::max(1.0, std::abs(f)))
+      continue;
+    x.push_back(px);
+    y.push_back(py);
+    z.push_back(pz);
+    ref.push_back(cls.orbit(px, py, pz).root);
+  }
+  std::vector<double> got(x.size());
+  for (std::int64_t target : detail::kernel_dispatch_targets()) {
+    hwy::SetSupportedTargetsForTest(target);
+    std::fill(got.begin(), got.end(), std::nan(""));
+    detail::kernel_field(*k, x.data(), y.data(), z.data(), x.size(), got.data(), true);
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      const double r = ref[i], g = got[i];
+      const bool same_sign = std::abs(r) <= 1e-6 || (r <= 0) == (g <= 0);
+      const bool close = std::abs(g - r) <= 1e-5 * std::max(1.0, std::abs(r));
+      EXPECT_TRUE(same_sign && close)
+          << hwy::TargetName(target) << " '" << p.formula << "' " << to_string(p.method) << " at ("
+          << x[i] << ", " << y[i] << ", " << z[i] << "): kernel " << g << ", scalar " << r;
+      if (!(same_sign && close)) break;
+    }
+  }
+  hwy::SetSupportedTargetsForTest(0);
+  return static_cast<int>(x.size());
+}
+
+TEST(Kernel, RefinementValuesMatchTheScalarOnesOnEveryTarget) {
+  // The single-operation maps (each target's register-resident loop, which keeps the extreme
+  // only for these values) in both methods and modes, and every preset.
+  const char* const formulas[] = {"h^2", "h^2 + c", "h^2 - 0.8", "h^2 + [0.1,-0.6,0.2,0.05]"};
+  unsigned seed = 700;
+  for (const char* formula : formulas)
+    for (Method method : {Method::kEscape, Method::kCutoff})
+      for (Mode mode : {Mode::kJulia, Mode::kMandelbrot}) {
+        Params p;
+        p.formula = formula;
+        p.set_constant("c", {-0.2, 0.8, 0.0, 0.0});
+        p.method = method;
+        p.mode = mode;
+        p.iterations = 4 + seed % 9;
+        p.bailout = method == Method::kEscape ? 4.0 : 0.05;
+        SCOPED_TRACE(std::string(formula) + " " + to_string(method) +
+                     (mode == Mode::kMandelbrot ? " Mandelbrot" : " Julia"));
+        EXPECT_GT(check_roots_against_scalar(p, 997, seed++), 900);
+      }
+  for (const std::string& name : preset_names()) {
+    SCOPED_TRACE(name);
+    EXPECT_GT(check_roots_against_scalar(preset(name), 2000, seed++), 1900);
+  }
+}
+
 TEST(Kernel, AnalyticFunctionsMatchTheScalarOnesOnEveryTarget) {
   // Per component within 1e-12 * max(1, |f|), at points at least 1e-6 from the branch cut (the
   // negative real axis, for log, sqrt and real powers), with magnitudes from tiny to those that

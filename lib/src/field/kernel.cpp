@@ -801,16 +801,25 @@ class Machine {
   // step and the masks in registers (on AVX-512 and AVX2, below).
   void run_single_op(const double* x, const double* y, const double* z, std::size_t n) {
     const int add = s_->kops[0].add;
+    if (root_)
+      run_single_op<true>(add, x, y, z, n);
+    else
+      run_single_op<false>(add, x, y, z, n);
+  }
+  // The extreme of each orbit's metric is kept only for the refinement values (root_of); F
+  // (field_of) reads the last metric and the one before.
+  template <bool kExt>
+  void run_single_op(int add, const double* x, const double* y, const double* z, std::size_t n) {
     if (s_->escape) {
-      if (add == 0) run_single_op<0, true>(x, y, z, n);
-      if (add == 1) run_single_op<1, true>(x, y, z, n);
-      if (add == 2) run_single_op<2, true>(x, y, z, n);
-      if (add == 3) run_single_op<3, true>(x, y, z, n);
+      if (add == 0) run_single_op<0, true, kExt>(x, y, z, n);
+      if (add == 1) run_single_op<1, true, kExt>(x, y, z, n);
+      if (add == 2) run_single_op<2, true, kExt>(x, y, z, n);
+      if (add == 3) run_single_op<3, true, kExt>(x, y, z, n);
     } else {
-      if (add == 0) run_single_op<0, false>(x, y, z, n);
-      if (add == 1) run_single_op<1, false>(x, y, z, n);
-      if (add == 2) run_single_op<2, false>(x, y, z, n);
-      if (add == 3) run_single_op<3, false>(x, y, z, n);
+      if (add == 0) run_single_op<0, false, kExt>(x, y, z, n);
+      if (add == 1) run_single_op<1, false, kExt>(x, y, z, n);
+      if (add == 2) run_single_op<2, false, kExt>(x, y, z, n);
+      if (add == 3) run_single_op<3, false, kExt>(x, y, z, n);
     }
   }
 
@@ -824,7 +833,7 @@ class Machine {
   // lives in registers: state kept in stack arrays was stored at every step, and those stores
   // aliased (4 KiB apart) the loads of the points at some stack offsets, which made the speed
   // of a process depend on the size of its environment.
-  template <int kAdd, bool kEscape>
+  template <int kAdd, bool kEscape, bool kExt>
   HWY_NOINLINE void run_single_op(const double* x, const double* y, const double* z,
                                   std::size_t n) {
     constexpr std::size_t kGroup = kAdd == 2 ? 2 : 4;  // c of each lane needs registers too
@@ -888,7 +897,7 @@ class Machine {
                   V{_mm512_mask_mov_pd(c[g].y.raw, ok, q.y.raw)},
                   V{_mm512_mask_mov_pd(c[g].z.raw, ok, q.z.raw)}};
         a[g] = V{_mm512_mask_mov_pd(a[g].raw, ok, p.raw)};
-        ext[g] = V{_mm512_mask_mov_pd(ext[g].raw, ok, p.raw)};
+        if (kExt) ext[g] = V{_mm512_mask_mov_pd(ext[g].raw, ok, p.raw)};
         k[g] = V{_mm512_mask_mov_pd(k[g].raw, ok, zero.raw)};
         _mm512_mask_store_pd(idx_ + 8 * g, ok, id.raw);
         filled |= ok;
@@ -914,8 +923,9 @@ class Machine {
           // Lanes outside `run` (decided, or idle) compute 0.
           const Q q = single_op_step_masked<kAdd, kEscape>(run, h[g], c[g], lit, r2, metric, exit);
           k[g] = V{_mm512_mask_add_pd(k[g].raw, run, k[g].raw, one.raw)};
-          ext[g] = V{kEscape ? _mm512_mask_max_pd(ext[g].raw, run, ext[g].raw, metric.raw)
-                             : _mm512_mask_min_pd(ext[g].raw, run, ext[g].raw, metric.raw)};
+          if (kExt)
+            ext[g] = V{kEscape ? _mm512_mask_max_pd(ext[g].raw, run, ext[g].raw, metric.raw)
+                               : _mm512_mask_min_pd(ext[g].raw, run, ext[g].raw, metric.raw)};
           prev[g] = V{_mm512_mask_mov_pd(prev[g].raw, run, a[g].raw)};
           a[g] = V{_mm512_mask_mov_pd(a[g].raw, run, metric.raw)};
           const __mmask8 now = run & hn::Or(exit, hn::Eq(k[g], iters)).raw;
@@ -933,7 +943,8 @@ class Machine {
         if (pending[g] && (__builtin_popcount(waiting) >= kRefillAt || live[g] == 0)) {
           const M m{pending[g]};
           const V code = exit_code<kEscape>(M{left[g]}, k[g], a[g]);
-          finished(m, code, a[g], second(code, prev[g], ext[g]), hn::Load(d, idx_ + 8 * g));
+          finished(m, code, a[g], kExt ? second(code, prev[g], ext[g]) : prev[g],
+                   hn::Load(d, idx_ + 8 * g));
           pending[g] = 0;
           left[g] = 0;
           live[g] |= load(group, waiting);
@@ -949,7 +960,7 @@ class Machine {
   // expanding loads done by lane tables (a masked load of the next points, then a permutation):
   // the state of kGroup vectors stays in registers, the steps run without a branch on the data,
   // a decided lane freezes (masked updates, its iterate zeroed) until its vector refills.
-  template <int kAdd, bool kEscape>
+  template <int kAdd, bool kEscape, bool kExt>
   HWY_NOINLINE void run_single_op(const double* x, const double* y, const double* z,
                                   std::size_t n) {
     constexpr std::size_t kGroup = kAdd == 2 ? 2 : 3;  // 16 registers: c of each lane needs some
@@ -1014,7 +1025,7 @@ class Machine {
                   V{_mm256_blendv_pd(c[g].y.raw, q.y.raw, ok)},
                   V{_mm256_blendv_pd(c[g].z.raw, q.z.raw, ok)}};
         a[g] = V{_mm256_blendv_pd(a[g].raw, p.raw, ok)};
-        ext[g] = V{_mm256_blendv_pd(ext[g].raw, p.raw, ok)};
+        if (kExt) ext[g] = V{_mm256_blendv_pd(ext[g].raw, p.raw, ok)};
         k[g] = V{_mm256_andnot_pd(ok, k[g].raw)};
         _mm256_maskstore_pd(idx_ + 4 * g, _mm256_castpd_si256(ok), id.raw);
         filled = _mm256_or_pd(filled, ok);
@@ -1042,8 +1053,10 @@ class Machine {
           q = {V{_mm256_and_pd(q.w.raw, run)}, V{_mm256_and_pd(q.x.raw, run)},
                V{_mm256_and_pd(q.y.raw, run)}, V{_mm256_and_pd(q.z.raw, run)}};
           k[g] = hn::Add(k[g], V{_mm256_and_pd(one.raw, run)});
-          ext[g] = V{_mm256_blendv_pd(
-              ext[g].raw, (kEscape ? hn::Max(ext[g], metric) : hn::Min(ext[g], metric)).raw, run)};
+          if (kExt)
+            ext[g] = V{_mm256_blendv_pd(
+                ext[g].raw, (kEscape ? hn::Max(ext[g], metric) : hn::Min(ext[g], metric)).raw,
+                run)};
           prev[g] = V{_mm256_blendv_pd(prev[g].raw, a[g].raw, run)};
           a[g] = V{_mm256_blendv_pd(a[g].raw, metric.raw, run)};
           const __m256d now = _mm256_and_pd(
@@ -1063,7 +1076,7 @@ class Machine {
         if (_mm256_movemask_pd(pending[g]) != 0 &&
             (__builtin_popcount(waiting) >= kRefillAt || livebits == 0)) {
           const V code = exit_code<kEscape>(M{left[g]}, k[g], a[g]);
-          finished(M{pending[g]}, code, a[g], second(code, prev[g], ext[g]),
+          finished(M{pending[g]}, code, a[g], kExt ? second(code, prev[g], ext[g]) : prev[g],
                    hn::Load(d, idx_ + 4 * g));
           pending[g] = left[g] = _mm256_setzero_pd();
           live[g] = _mm256_or_pd(live[g], load(group, waiting));
@@ -1077,7 +1090,7 @@ class Machine {
 #else
   // Targets without a loop of their own (never dispatched: the kernel runs on AVX2 and AVX-512
   // only) run the program through the sweeps.
-  template <int kAdd, bool kEscape>
+  template <int kAdd, bool kEscape, bool kExt>
   HWY_NOINLINE void run_single_op(const double* x, const double* y, const double* z,
                                   std::size_t n) {
     queue(x, y, z, n);
