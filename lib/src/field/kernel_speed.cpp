@@ -42,20 +42,32 @@ KernelSpeed measure(const Params& p, const Classifier& cls, const std::vector<do
     f();
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   };
+  // In blocks of 4096, as the pipeline's batches are at most that long.
+  auto compiled_pass = [&] {
+    for (std::size_t i = 0; i < n; i += 4096)
+      cls.field(x.data() + i, y.data() + i, z.data() + i, std::min<std::size_t>(4096, n - i),
+                f.data() + i);
+  };
+  auto reference_pass = [&] {
+    detail::reference_julia_escape(x.data(), y.data(), z.data(), n, c, p.iterations, p.bailout,
+                                   steps.data());
+  };
+  // Each timing runs the batch `passes` times, at least kMinSeconds in all: a batch of a few
+  // thousand points takes a fraction of a millisecond, which the clock's steps, an interrupt or
+  // the core's change of frequency would otherwise decide.
+  constexpr double kMinSeconds = 0.02;
+  int passes = 1;
+  while (passes < (1 << 20) && seconds(compiled_pass) * passes < kMinSeconds) passes *= 2;
+  auto timed = [&](auto&& pass) {
+    return seconds([&] {
+             for (int k = 0; k < passes; ++k) pass();
+           }) /
+           passes;
+  };
   double best_compiled = 1e300, best_reference = 1e300;
   for (int r = 0; r < repeats; ++r) {
-    // In blocks of 4096, as the pipeline's batches are at most that long.
-    best_compiled = std::min(best_compiled, seconds([&] {
-                               for (std::size_t i = 0; i < n; i += 4096)
-                                 cls.field(x.data() + i, y.data() + i, z.data() + i,
-                                           std::min<std::size_t>(4096, n - i), f.data() + i);
-                             }));
-    if (reference)
-      best_reference =
-          std::min(best_reference, seconds([&] {
-                     detail::reference_julia_escape(x.data(), y.data(), z.data(), n, c,
-                                                    p.iterations, p.bailout, steps.data());
-                   }));
+    best_compiled = std::min(best_compiled, timed(compiled_pass));
+    if (reference) best_reference = std::min(best_reference, timed(reference_pass));
   }
   s.compiled = useful / best_compiled;
   s.reference = reference ? useful / best_reference : 0.0;
