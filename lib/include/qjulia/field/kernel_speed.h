@@ -20,7 +20,8 @@ struct KernelSpeed {
 
 /// Measures both on two batches: the grid points of a resolution-`resolution` box within
 /// |F| < 0.5 of the surface (what sampling evaluates), and every grid point of the box. Each
-/// figure is the best of `repeats` passes, the two kernels alternating.
+/// figure is the best of `repeats` timings, the two kernels alternating; each timing repeats the
+/// batch for at least 20 ms.
 /// @throws InvalidInput when resolution is outside 16..512.
 std::pair<KernelSpeed, KernelSpeed> measure_kernel_speed(int resolution = 128, int repeats = 7);
 
