@@ -292,6 +292,50 @@ std::string random_formula(std::mt19937_64& rng, int depth) {
   }
 }
 
+// Random points of p's box: F by the reference, and whether it is well-conditioned there (the
+// reference computed with the kernel's rounding agrees within 1e-11 * max(1, |F|)).
+struct BoxSample {
+  std::vector<double> x, y, z, f;
+  std::vector<char> conditioned;
+  int excluded = 0;
+};
+
+BoxSample sample_box(const Params& p, int count, unsigned seed) {
+  std::mt19937_64 rng(seed);
+  BoxSample s;
+  for (int i = 0; i < count; ++i) {
+    const double x = std::uniform_real_distribution<double>(p.bounds.min[0], p.bounds.max[0])(rng);
+    const double y = std::uniform_real_distribution<double>(p.bounds.min[1], p.bounds.max[1])(rng);
+    const double z = std::uniform_real_distribution<double>(p.bounds.min[2], p.bounds.max[2])(rng);
+    const double f = reference_field<false>(p, x, y, z);
+    const double fused = reference_field<true>(p, x, y, z);
+    const bool conditioned = std::abs(fused - f) <= 1e-11 * std::max(1.0, std::abs(f));
+    s.x.push_back(x);
+    s.y.push_back(y);
+    s.z.push_back(z);
+    s.f.push_back(f);
+    s.conditioned.push_back(conditioned);
+    s.excluded += !conditioned;
+  }
+  return s;
+}
+
+// Runs the kernel over the sample on every vector target it is compiled for and this CPU runs
+// (F, or the refinement values with `root`), and calls agree(target, i, value) at each
+// well-conditioned point until it returns false.
+template <class Agree>
+void on_every_target(const detail::KernelSetup& k, const BoxSample& s, bool root, Agree&& agree) {
+  std::vector<double> got(s.x.size());
+  for (std::int64_t target : detail::kernel_dispatch_targets()) {
+    hwy::SetSupportedTargetsForTest(target);
+    std::fill(got.begin(), got.end(), std::nan(""));
+    detail::kernel_field(k, s.x.data(), s.y.data(), s.z.data(), s.x.size(), got.data(), root);
+    for (std::size_t i = 0; i < got.size(); ++i)
+      if (s.conditioned[i] && !agree(target, i, got[i])) break;
+  }
+  hwy::SetSupportedTargetsForTest(0);
+}
+
 // Runs `p` through the kernel on every vector target it is compiled for and this CPU runs,
 // against the reference, on random points of the box. The kernel uses
 // fused multiply-adds and the reference does not, so the two differ in the last bits; F must
@@ -305,36 +349,17 @@ double check_against_reference(const Params& p, int count, unsigned seed) {
   const detail::KernelSetup* k = cls.kernel();
   EXPECT_NE(k, nullptr) << p.formula << ": the kernel should cover this formula";
   if (!k) return 1.0;
-  std::mt19937_64 rng(seed);
-  std::vector<double> x(count), y(count), z(count), ref(count), got(count);
-  std::vector<char> conditioned(count);
-  int excluded = 0;
-  for (int i = 0; i < count; ++i) {
-    x[i] = std::uniform_real_distribution<double>(p.bounds.min[0], p.bounds.max[0])(rng);
-    y[i] = std::uniform_real_distribution<double>(p.bounds.min[1], p.bounds.max[1])(rng);
-    z[i] = std::uniform_real_distribution<double>(p.bounds.min[2], p.bounds.max[2])(rng);
-    ref[i] = reference_field<false>(p, x[i], y[i], z[i]);
-    const double fused = reference_field<true>(p, x[i], y[i], z[i]);
-    conditioned[i] = std::abs(fused - ref[i]) <= 1e-11 * std::max(1.0, std::abs(ref[i]));
-    excluded += !conditioned[i];
-  }
-  for (std::int64_t target : detail::kernel_dispatch_targets()) {
-    hwy::SetSupportedTargetsForTest(target);
-    std::fill(got.begin(), got.end(), std::nan(""));
-    detail::kernel_field(*k, x.data(), y.data(), z.data(), count, got.data());
-    for (int i = 0; i < count; ++i) {
-      if (!conditioned[i]) continue;
-      const double f = ref[i], g = got[i];
-      const bool same_class = std::abs(f) <= 1e-9 || (f <= 0) == (g <= 0);
-      const bool close = std::abs(g - f) <= 1e-9 * std::max(1.0, std::abs(f));
-      EXPECT_TRUE(same_class && close)
-          << hwy::TargetName(target) << " '" << p.formula << "' " << to_string(p.method) << " at ("
-          << x[i] << ", " << y[i] << ", " << z[i] << "): kernel " << g << ", reference " << f;
-      if (!(same_class && close)) break;
-    }
-  }
-  hwy::SetSupportedTargetsForTest(0);
-  return static_cast<double>(excluded) / count;
+  const BoxSample s = sample_box(p, count, seed);
+  on_every_target(*k, s, false, [&](std::int64_t target, std::size_t i, double g) {
+    const double f = s.f[i];
+    const bool same_class = std::abs(f) <= 1e-9 || (f <= 0) == (g <= 0);
+    const bool close = std::abs(g - f) <= 1e-9 * std::max(1.0, std::abs(f));
+    EXPECT_TRUE(same_class && close)
+        << hwy::TargetName(target) << " '" << p.formula << "' " << to_string(p.method) << " at ("
+        << s.x[i] << ", " << s.y[i] << ", " << s.z[i] << "): kernel " << g << ", reference " << f;
+    return same_class && close;
+  });
+  return static_cast<double>(s.excluded) / count;
 }
 
 TEST(Kernel, DispatchesToAVX2OrBetterWhereTheCpuHasIt) {
@@ -411,37 +436,17 @@ int check_roots_against_scalar(const Params& p, int count, unsigned seed) {
   const detail::KernelSetup* k = cls.kernel();
   EXPECT_NE(k, nullptr) << p.formula << ": the kernel should cover this formula";
   if (!k) return 0;
-  std::mt19937_64 rng(seed);
-  std::vector<double> x, y, z, ref;
-  for (int i = 0; i < count; ++i) {
-    const double px = std::uniform_real_distribution<double>(p.bounds.min[0], p.bounds.max[0])(rng);
-    const double py = std::uniform_real_distribution<double>(p.bounds.min[1], p.bounds.max[1])(rng);
-    const double pz = std::uniform_real_distribution<double>(p.bounds.min[2], p.bounds.max[2])(rng);
-    const double f = reference_field<false>(p, px, py, pz);
-    if (std::abs(reference_field<true>(p, px, py, pz) - f) > 1e-11 * std::max(1.0, std::abs(f)))
-      continue;
-    x.push_back(px);
-    y.push_back(py);
-    z.push_back(pz);
-    ref.push_back(cls.orbit(px, py, pz).root);
-  }
-  std::vector<double> got(x.size());
-  for (std::int64_t target : detail::kernel_dispatch_targets()) {
-    hwy::SetSupportedTargetsForTest(target);
-    std::fill(got.begin(), got.end(), std::nan(""));
-    detail::kernel_field(*k, x.data(), y.data(), z.data(), x.size(), got.data(), true);
-    for (std::size_t i = 0; i < x.size(); ++i) {
-      const double r = ref[i], g = got[i];
-      const bool same_sign = std::abs(r) <= 1e-6 || (r <= 0) == (g <= 0);
-      const bool close = std::abs(g - r) <= 1e-5 * std::max(1.0, std::abs(r));
-      EXPECT_TRUE(same_sign && close)
-          << hwy::TargetName(target) << " '" << p.formula << "' " << to_string(p.method) << " at ("
-          << x[i] << ", " << y[i] << ", " << z[i] << "): kernel " << g << ", scalar " << r;
-      if (!(same_sign && close)) break;
-    }
-  }
-  hwy::SetSupportedTargetsForTest(0);
-  return static_cast<int>(x.size());
+  const BoxSample s = sample_box(p, count, seed);
+  on_every_target(*k, s, true, [&](std::int64_t target, std::size_t i, double g) {
+    const double r = cls.orbit(s.x[i], s.y[i], s.z[i]).root;
+    const bool same_sign = std::abs(r) <= 1e-6 || (r <= 0) == (g <= 0);
+    const bool close = std::abs(g - r) <= 1e-5 * std::max(1.0, std::abs(r));
+    EXPECT_TRUE(same_sign && close)
+        << hwy::TargetName(target) << " '" << p.formula << "' " << to_string(p.method) << " at ("
+        << s.x[i] << ", " << s.y[i] << ", " << s.z[i] << "): kernel " << g << ", scalar " << r;
+    return same_sign && close;
+  });
+  return count - s.excluded;
 }
 
 TEST(Kernel, RefinementValuesMatchTheScalarOnesOnEveryTarget) {
