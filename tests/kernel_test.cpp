@@ -320,20 +320,41 @@ BoxSample sample_box(const Params& p, int count, unsigned seed) {
   return s;
 }
 
-// Runs the kernel over the sample on every vector target it is compiled for and this CPU runs
-// (F, or the refinement values with `root`), and calls agree(target, i, value) at each
-// well-conditioned point until it returns false.
+// Runs the kernel for `p` over `count` random points of its box (sample_box) on every vector
+// target it is compiled for and this CPU runs (F, or the refinement values with `root`), and
+// calls agree(target, sample, i, value) at each well-conditioned point until it returns false.
+// Returns the sample; none when the kernel does not cover p (a failure).
 template <class Agree>
-void on_every_target(const detail::KernelSetup& k, const BoxSample& s, bool root, Agree&& agree) {
+BoxSample on_every_target(const Params& p, int count, unsigned seed, bool root, Agree&& agree) {
+  const Classifier cls(p);
+  const detail::KernelSetup* k = cls.kernel();
+  EXPECT_NE(k, nullptr) << p.formula << ": the kernel should cover this formula";
+  if (!k) return {};
+  const BoxSample s = sample_box(p, count, seed);
   std::vector<double> got(s.x.size());
   for (std::int64_t target : detail::kernel_dispatch_targets()) {
     hwy::SetSupportedTargetsForTest(target);
     std::fill(got.begin(), got.end(), std::nan(""));
-    detail::kernel_field(k, s.x.data(), s.y.data(), s.z.data(), s.x.size(), got.data(), root);
+    detail::kernel_field(*k, s.x.data(), s.y.data(), s.z.data(), s.x.size(), got.data(), root);
     for (std::size_t i = 0; i < got.size(); ++i)
-      if (s.conditioned[i] && !agree(target, i, got[i])) break;
+      if (s.conditioned[i] && !agree(target, s, i, got[i])) break;
   }
   hwy::SetSupportedTargetsForTest(0);
+  return s;
+}
+
+// Whether the kernel's value g at point i of the sample agrees with `want` (the `what` value):
+// the same sign where |want| > sign_floor, and within rel * max(1, |want|). A failure names the
+// target, the map and the point.
+bool agrees(std::int64_t target, const Params& p, const BoxSample& s, std::size_t i, double g,
+            double want, double sign_floor, double rel, const char* what) {
+  const bool same_sign = std::abs(want) <= sign_floor || (want <= 0) == (g <= 0);
+  const bool close = std::abs(g - want) <= rel * std::max(1.0, std::abs(want));
+  EXPECT_TRUE(same_sign && close) << hwy::TargetName(target) << " '" << p.formula << "' "
+                                  << to_string(p.method) << " at (" << s.x[i] << ", " << s.y[i]
+                                  << ", " << s.z[i] << "): kernel " << g << ", " << what << " "
+                                  << want;
+  return same_sign && close;
 }
 
 // Runs `p` through the kernel on every vector target it is compiled for and this CPU runs,
@@ -345,21 +366,11 @@ void on_every_target(const detail::KernelSetup& k, const BoxSample& s, bool root
 // whose last step is rounding noise, as in h/h) no two correct evaluators need agree. Returns
 // the share of points so excluded.
 double check_against_reference(const Params& p, int count, unsigned seed) {
-  const Classifier cls(p);
-  const detail::KernelSetup* k = cls.kernel();
-  EXPECT_NE(k, nullptr) << p.formula << ": the kernel should cover this formula";
-  if (!k) return 1.0;
-  const BoxSample s = sample_box(p, count, seed);
-  on_every_target(*k, s, false, [&](std::int64_t target, std::size_t i, double g) {
-    const double f = s.f[i];
-    const bool same_class = std::abs(f) <= 1e-9 || (f <= 0) == (g <= 0);
-    const bool close = std::abs(g - f) <= 1e-9 * std::max(1.0, std::abs(f));
-    EXPECT_TRUE(same_class && close)
-        << hwy::TargetName(target) << " '" << p.formula << "' " << to_string(p.method) << " at ("
-        << s.x[i] << ", " << s.y[i] << ", " << s.z[i] << "): kernel " << g << ", reference " << f;
-    return same_class && close;
-  });
-  return static_cast<double>(s.excluded) / count;
+  const BoxSample s = on_every_target(
+      p, count, seed, false, [&](std::int64_t target, const BoxSample& s, std::size_t i, double g) {
+        return agrees(target, p, s, i, g, s.f[i], 1e-9, 1e-9, "reference");
+      });
+  return s.x.empty() ? 1.0 : static_cast<double>(s.excluded) / count;
 }
 
 TEST(Kernel, DispatchesToAVX2OrBetterWhereTheCpuHasIt) {
@@ -402,14 +413,15 @@ TEST(Kernel, RandomFormulasMatchTheScalarReferenceOnEveryTarget) {
   EXPECT_LT(excluded / trials, 0.05);
 }
 
-TEST(Kernel, SingleOperationMapsMatchTheScalarReferenceOnEveryTarget) {
-  // h^2 plus nothing, c, a real number or a quaternion: the programs of one operation, which
-  // each vector target runs through its own register-resident loop (refills of decided lanes
-  // included), in both methods and both modes, over boxes where orbits end at every step.
+// h^2 plus nothing, c, a real number or a quaternion: the programs of one operation, which each
+// vector target runs through its own register-resident loop (refills of decided lanes included),
+// in both methods and both modes, with 4 to 12 iterations: f(p, trial) for each (trial 0 .. 15).
+template <class F>
+void each_single_operation_map(F&& f) {
   const char* const formulas[] = {"h^2", "h^2 + c", "h^2 - 0.8", "h^2 + [0.1,-0.6,0.2,0.05]"};
   int trial = 0;
-  for (const char* formula : formulas) {
-    for (Method method : {Method::kEscape, Method::kCutoff}) {
+  for (const char* formula : formulas)
+    for (Method method : {Method::kEscape, Method::kCutoff})
       for (Mode mode : {Mode::kJulia, Mode::kMandelbrot}) {
         Params p;
         p.formula = formula;
@@ -420,11 +432,16 @@ TEST(Kernel, SingleOperationMapsMatchTheScalarReferenceOnEveryTarget) {
         p.bailout = method == Method::kEscape ? 4.0 : 0.05;
         SCOPED_TRACE(std::string(formula) + " " + to_string(method) +
                      (mode == Mode::kMandelbrot ? " Mandelbrot" : " Julia"));
-        // 997 points: the last vector of every target is partly filled.
-        EXPECT_LT(check_against_reference(p, 997, 500 + trial++), 0.02);
+        f(p, trial++);
       }
-    }
-  }
+}
+
+TEST(Kernel, SingleOperationMapsMatchTheScalarReferenceOnEveryTarget) {
+  // Over boxes where orbits end at every step; 997 points: the last vector of every target is
+  // partly filled.
+  each_single_operation_map([](const Params& p, int trial) {
+    EXPECT_LT(check_against_reference(p, 997, 500 + trial), 0.02);
+  });
 }
 
 // The refinement values (Orbit::root: the extreme of the orbit's metric up to its decision) of
@@ -433,41 +450,21 @@ TEST(Kernel, SingleOperationMapsMatchTheScalarReferenceOnEveryTarget) {
 // and within 1e-5 * max(1, |root|) (the scalar value is a float). Returns the points compared.
 int check_roots_against_scalar(const Params& p, int count, unsigned seed) {
   const Classifier cls(p);
-  const detail::KernelSetup* k = cls.kernel();
-  EXPECT_NE(k, nullptr) << p.formula << ": the kernel should cover this formula";
-  if (!k) return 0;
-  const BoxSample s = sample_box(p, count, seed);
-  on_every_target(*k, s, true, [&](std::int64_t target, std::size_t i, double g) {
-    const double r = cls.orbit(s.x[i], s.y[i], s.z[i]).root;
-    const bool same_sign = std::abs(r) <= 1e-6 || (r <= 0) == (g <= 0);
-    const bool close = std::abs(g - r) <= 1e-5 * std::max(1.0, std::abs(r));
-    EXPECT_TRUE(same_sign && close)
-        << hwy::TargetName(target) << " '" << p.formula << "' " << to_string(p.method) << " at ("
-        << s.x[i] << ", " << s.y[i] << ", " << s.z[i] << "): kernel " << g << ", scalar " << r;
-    return same_sign && close;
-  });
-  return count - s.excluded;
+  const BoxSample s = on_every_target(
+      p, count, seed, true, [&](std::int64_t target, const BoxSample& s, std::size_t i, double g) {
+        return agrees(target, p, s, i, g, cls.orbit(s.x[i], s.y[i], s.z[i]).root, 1e-6, 1e-5,
+                      "scalar");
+      });
+  return static_cast<int>(s.x.size()) - s.excluded;
 }
 
 TEST(Kernel, RefinementValuesMatchTheScalarOnesOnEveryTarget) {
-  // The single-operation maps (each target's register-resident loop, which keeps the extreme
-  // only for these values) in both methods and modes, and every preset.
-  const char* const formulas[] = {"h^2", "h^2 + c", "h^2 - 0.8", "h^2 + [0.1,-0.6,0.2,0.05]"};
-  unsigned seed = 700;
-  for (const char* formula : formulas)
-    for (Method method : {Method::kEscape, Method::kCutoff})
-      for (Mode mode : {Mode::kJulia, Mode::kMandelbrot}) {
-        Params p;
-        p.formula = formula;
-        p.set_constant("c", {-0.2, 0.8, 0.0, 0.0});
-        p.method = method;
-        p.mode = mode;
-        p.iterations = 4 + seed % 9;
-        p.bailout = method == Method::kEscape ? 4.0 : 0.05;
-        SCOPED_TRACE(std::string(formula) + " " + to_string(method) +
-                     (mode == Mode::kMandelbrot ? " Mandelbrot" : " Julia"));
-        EXPECT_GT(check_roots_against_scalar(p, 997, seed++), 900);
-      }
+  // The single-operation maps (whose loops keep the extreme only for these values) and every
+  // preset.
+  each_single_operation_map([](const Params& p, int trial) {
+    EXPECT_GT(check_roots_against_scalar(p, 997, 700 + trial), 900);
+  });
+  unsigned seed = 800;
   for (const std::string& name : preset_names()) {
     SCOPED_TRACE(name);
     EXPECT_GT(check_roots_against_scalar(preset(name), 2000, seed++), 1900);
