@@ -140,12 +140,6 @@ int signs_of(const float v[8]) {
   return s;
 }
 
-int popcount(unsigned x) {
-  int n = 0;
-  for (; x; x &= x - 1) ++n;
-  return n;
-}
-
 // Faces with four crossings for each sign pattern.
 struct CaseTable {
   std::uint8_t ambiguous[256] = {};
@@ -162,7 +156,8 @@ struct CaseTable {
         if (changes == 4) ambiguous[signs] |= static_cast<std::uint8_t>(1u << f);
       }
     std::size_t count = 0;  // a case for each answer of each ambiguous face
-    for (int signs = 0; signs < 256; ++signs) count += std::size_t{1} << popcount(ambiguous[signs]);
+    for (int signs = 0; signs < 256; ++signs)
+      count += std::size_t{1} << __builtin_popcount(ambiguous[signs]);
     cases.reserve(count);
     for (int signs = 0; signs < 256; ++signs)
       for (int saddles = 0; saddles < 64; ++saddles) {
