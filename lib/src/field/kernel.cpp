@@ -735,8 +735,11 @@ class Machine {
     return s_->escape ? hn::Max(ext, metric) : hn::Min(ext, metric);
   }
   // What a decided orbit keeps as its second value: the previous metric (for F), or the
-  // extreme for an orbit that never decided (F does not use the previous metric there).
+  // extreme for an orbit that never decided (F does not use the previous metric there). A loop
+  // that keeps no extreme (kExt false: it computes F only) keeps the previous metric.
+  template <bool kExt = true>
   static HWY_INLINE V second(V code, V prev, V ext) {
+    if (!kExt) return prev;
     return hn::IfThenElse(hn::Eq(code, hn::Set(D(), -1.0)), ext, prev);
   }
 
@@ -945,8 +948,7 @@ class Machine {
         if (pending[g] && (__builtin_popcount(waiting) >= kRefillAt || live[g] == 0)) {
           const M m{pending[g]};
           const V code = exit_code<kEscape>(M{left[g]}, k[g], a[g]);
-          finished(m, code, a[g], kExt ? second(code, prev[g], ext[g]) : prev[g],
-                   hn::Load(d, idx_ + 8 * g));
+          finished(m, code, a[g], second<kExt>(code, prev[g], ext[g]), hn::Load(d, idx_ + 8 * g));
           pending[g] = 0;
           left[g] = 0;
           live[g] |= load(group, waiting);
@@ -1078,7 +1080,7 @@ class Machine {
         if (_mm256_movemask_pd(pending[g]) != 0 &&
             (__builtin_popcount(waiting) >= kRefillAt || livebits == 0)) {
           const V code = exit_code<kEscape>(M{left[g]}, k[g], a[g]);
-          finished(M{pending[g]}, code, a[g], kExt ? second(code, prev[g], ext[g]) : prev[g],
+          finished(M{pending[g]}, code, a[g], second<kExt>(code, prev[g], ext[g]),
                    hn::Load(d, idx_ + 4 * g));
           pending[g] = left[g] = _mm256_setzero_pd();
           live[g] = _mm256_or_pd(live[g], load(group, waiting));
