@@ -254,6 +254,7 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
     ExtractOptions eopts = extract_options(params, opts, timer);
     eopts.return_free_memory = sopts.return_free_memory;
     eopts.memory_limit = stats.memory_limit;
+    eopts.normals = false;  // made after the dust, below
     ExtractStats estats;
     TriMesh mesh =
         opts.keep_grid ? extract(grid, eopts, &estats) : extract(std::move(grid), eopts, &estats);
@@ -276,7 +277,11 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
         creport = detail::remove_dust(mesh, estats, threshold);
         known = std::move(estats.measure);
         std::vector<std::uint32_t>().swap(estats.face_component);  // not needed any more
+        // The normals of what is left (eopts.normals): the same sums, in the memory the faces'
+        // components held.
+        if (mesh.normals.size() != mesh.positions.size()) compute_normals(mesh);
       } else {
+        if (mesh.normals.size() != mesh.positions.size()) compute_normals(mesh);
         CleanOptions copts;
         copts.min_component_volume = params.mesh.min_component;
         copts.voxel_size = voxel;

@@ -1007,10 +1007,10 @@ TriMesh BrickMesher::run() {
   report(0.95);
   resolve_face_components();
   complete_measure();
-  if (!part)
-    compute_normals(mesh);
-  else
+  if (part)
     normals_across_ranks();
+  else if (opts.normals || opts.color != ColorMode::kNone)
+    compute_normals(mesh);
   if (opts.color != ColorMode::kNone)
     evaluations += detail::colorize(mesh, *impl.solid, impl.geometry.voxel, opts.color);
   if (stats) fill_stats();

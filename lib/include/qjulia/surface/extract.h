@@ -29,6 +29,10 @@ struct ExtractOptions {
   std::size_t memory_limit = 0;
   /// Per-vertex colours (left empty for kNone).
   ColorMode color = ColorMode::kNone;
+  /// Make the vertex normals. Without colours they may be left out, for the caller to make
+  /// after removing faces: the mesh is measured per component (ExtractStats), so whole
+  /// components can go first, and the normals then take memory the per-face data gave back.
+  bool normals = true;
   /// Progress in [0, 1]; return false to cancel.
   ProgressFn progress;
   /// Checked throughout the work; when requested, the stage throws Cancelled.
