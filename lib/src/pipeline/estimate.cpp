@@ -24,7 +24,7 @@ namespace {
 // the written mesh, which peak at different times), the faces and bricks per crossing cell,
 // and what the other stages and formats add.
 constexpr double kProcess = 28.0 * (1 << 20);
-constexpr double kPerCell = 80;
+constexpr double kPerCell = 72;
 constexpr double kFacesPerCell = 2.1;
 constexpr double kBrickBytes = 2600;  // a brick with its values, sampling and extraction
 // The sampling's own peak, at its end: the process then, every brick made (level-8 candidates
