@@ -7,6 +7,7 @@
 #include <complex>
 #include <set>
 
+#include "qjulia/base/mesh.h"
 #include "qjulia/mesh/clean.h"
 
 namespace qjulia {
@@ -170,6 +171,9 @@ TEST(Pipeline, DustRemovalKeepsTheOrderAndLeavesTheFacesTheGeneralCleanLeaves) {
   for (std::size_t v = 0; v < all.mesh.positions.size(); ++v)
     every_v.emplace_back(all.mesh.positions[v], all.mesh.normals[v]);
   EXPECT_TRUE(is_subsequence(kept_v, every_v));
+  // Made after the dust removal, they are each vertex's face-order sum over the mesh as kept.
+  ASSERT_EQ(r.mesh.normals.size(), r.mesh.positions.size());
+  EXPECT_TRUE(r.mesh.normals == area_weighted_normals(r.mesh));
   std::vector<char> used(r.mesh.positions.size(), 0);
   for (const auto& t : r.mesh.triangles)
     for (std::uint32_t v : t) used[v] = 1;
