@@ -281,6 +281,8 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
         // components held.
         if (mesh.normals.size() != mesh.positions.size()) compute_normals(mesh);
       } else {
+        // Before the general clean(), which keeps the normals of the vertices it keeps (as when
+        // the extraction made them).
         if (mesh.normals.size() != mesh.positions.size()) compute_normals(mesh);
         CleanOptions copts;
         copts.min_component_volume = params.mesh.min_component;
