@@ -859,7 +859,7 @@ struct BrickMesher {
     tbb::parallel_for(std::size_t{0}, nb, [&](std::size_t i) { bm[i] = BrickMeasure(); });
     bm.clear();
     bm.shrink_to_fit();
-    give_back(12 * (edges_local + centres_local));  // next: the normals
+    give_back(12 * (edges_local + centres_local));  // next: the normals, if made here
     if (comm) {
       m.edges = comm->sum(m.edges);
       problems = comm->sum(problems);
@@ -879,7 +879,7 @@ struct BrickMesher {
     }
     std::vector<BrickMeasure::Comp>().swap(comps);
     std::vector<std::array<std::uint32_t, 2>>().swap(links);
-    give_back(12 * (edges_local + centres_local));  // next: the normals
+    give_back(12 * (edges_local + centres_local));  // next: the normals, if made here
   }
 
   // Every rank's local components and links go to rank 0, which joins and resolves them and
