@@ -7,6 +7,9 @@
 // of the new iterates and marks the lanes whose orbit has decided. Those lanes are retired into
 // a buffer of finished orbits and refilled at once with the next waiting points (an expanding
 // load on AVX-512), so the vectors stay full. F is computed for the finished orbits in bulk.
+// Two kinds of program run instead in loops that keep a few vectors of orbits in registers
+// (Machine::run_in_registers): one square plus an addition (h^2 + c), and Newton's map of a
+// cubic (CubicOverSquareStep), each lane computing exactly what the sweeps compute.
 #include "field/kernel.h"
 
 #include <algorithm>
@@ -242,6 +245,85 @@ HWY_INLINE Q inv(const Q& a) {
   return {hn::Mul(a.w, r), hn::Neg(hn::Mul(a.x, r)), hn::Neg(hn::Mul(a.y, r)),
           hn::Neg(hn::Mul(a.z, r))};
 }
+
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
+// The maps whose orbits the register loops (Machine::run_in_registers, on AVX-512 and AVX2) run:
+// step(run, h, c, r2, metric, exit) gives the next iterate, which is `idle` in the lanes outside
+// `run` (decided or empty); the loop keeps kGroup vectors of orbits in flight, and c of each lane
+// where kUsesC.
+#if HWY_TARGET == HWY_AVX2
+using RunMask = __m256d;  // every bit of a lane set
+constexpr bool kWide = false;
+// q in the lanes of `run`, idle elsewhere.
+HWY_INLINE Q keep(RunMask run, const Q& q, const Q& idle) {
+  return {
+      V{_mm256_blendv_pd(idle.w.raw, q.w.raw, run)}, V{_mm256_blendv_pd(idle.x.raw, q.x.raw, run)},
+      V{_mm256_blendv_pd(idle.y.raw, q.y.raw, run)}, V{_mm256_blendv_pd(idle.z.raw, q.z.raw, run)}};
+}
+#else
+using RunMask = __mmask8;
+constexpr bool kWide = true;
+HWY_INLINE Q keep(RunMask run, const Q& q, const Q& idle) {
+  return {V{_mm512_mask_mov_pd(idle.w.raw, run, q.w.raw)},
+          V{_mm512_mask_mov_pd(idle.x.raw, run, q.x.raw)},
+          V{_mm512_mask_mov_pd(idle.y.raw, run, q.y.raw)},
+          V{_mm512_mask_mov_pd(idle.z.raw, run, q.z.raw)}};
+}
+#endif
+
+// h^2 plus the literal (kAdd 1), c (2), the literal's real part (3) or nothing (0); idle lanes
+// compute on from 0.
+template <int kAdd>
+struct SquareStep {
+  static constexpr bool kUsesC = kAdd == 2;
+  // c of each lane needs registers too; AVX2 has 16 of them.
+  static constexpr std::size_t kGroup = kAdd == 2 ? 2 : kWide ? 4 : 3;
+  Q lit;
+  explicit SquareStep(const KernelSetup& s) : lit(broadcast(s.kops[0].add_lit)) {}
+  static HWY_INLINE Q idle() {
+    const V zero = hn::Zero(D());
+    return {zero, zero, zero, zero};
+  }
+  template <bool kEscape>
+  HWY_INLINE Q step(RunMask run, const Q& h, const Q& c, V r2, V& metric, M& exit) const {
+#if HWY_TARGET == HWY_AVX2
+    const Q q = single_op_step<kAdd, kEscape>(h, c, lit, r2, metric, exit);
+    return {V{_mm256_and_pd(q.w.raw, run)}, V{_mm256_and_pd(q.x.raw, run)},
+            V{_mm256_and_pd(q.y.raw, run)}, V{_mm256_and_pd(q.z.raw, run)}};
+#else
+    return single_op_step_masked<kAdd, kEscape>(run, h, c, lit, r2, metric, exit);
+#endif
+  }
+};
+
+// (s1 (s0 h^2) h + a) / (s2 h^2) with real s0, s1, s2 and a: Newton's map of a cubic, as the
+// formula compiler writes (2*h^3+1)/(3*h^2). The same operations as the program's, in its
+// order (a real factor of 1 multiplies exactly), so every lane computes what the sweeps do.
+struct CubicOverSquareStep {
+  static constexpr bool kUsesC = false;
+  static constexpr std::size_t kGroup = kWide ? 3 : 2;
+  V s0, s1, a, s2;
+  explicit CubicOverSquareStep(const KernelSetup& s)
+      : s0(hn::Set(D(), s.kops[0].scale)),
+        s1(hn::Set(D(), s.kops[1].scale)),
+        a(hn::Set(D(), s.kops[1].add_lit.w)),
+        s2(hn::Set(D(), s.kops[2].scale)) {}
+  // 1: finite and far from 0, so the inverse keeps its fast path in idle lanes.
+  static HWY_INLINE Q idle() {
+    const V zero = hn::Zero(D());
+    return {hn::Set(D(), 1.0), zero, zero, zero};
+  }
+  template <bool kEscape>
+  HWY_INLINE Q step(RunMask run, const Q& h, const Q&, V r2, V& metric, M& exit) const {
+    const Q square = sqr(h);  // the program squares h twice, with the same result
+    Q top = scale(s1, mul(scale(s0, square), h));
+    top.w = hn::Add(top.w, a);
+    const Q q = mul(top, inv(scale(s2, square)));
+    metric = step_metric<kEscape>(q, h, r2, exit);
+    return keep(run, q, idle());
+  }
+};
+#endif
 
 // The analytic functions. q = a + t u (t = |vector part|, u its direction, u = i when t = 0)
 // behaves as the complex number a + t i: f(q) = Re f(a + t i) + u Im f(a + t i). Lanes outside
@@ -608,6 +690,8 @@ class Machine {
     setup_slots();
     if (single_op()) {
       run_single_op(x, y, z, n);
+    } else if (cubic_over_square()) {
+      run_cubic_over_square(x, y, z, n);
     } else {
       queue(x, y, z, n);
       start();
@@ -800,6 +884,41 @@ class Machine {
            (op.add != 2 || (op.add_reg == s_->c_register && s_->c_register > 0));
   }
 
+  // A program of CubicOverSquareStep's form: h2 = s0 h^2; t = s1 (h2 h) + a (a real); u = s2
+  // h^2; f = t inv(u). AVX-512 and AVX2 run it in registers (run_cubic_over_square).
+  bool cubic_over_square() const {
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
+    const std::vector<KernelOp>& k = s_->kops;
+    if (k.size() != 4) return false;
+    const KernelOp &h2 = k[0], &t = k[1], &u = k[2], &f = k[3];
+    return h2.code == OpCode::kSqr && h2.a == 0 && h2.add == 0 && h2.dst != 0 &&
+           t.code == OpCode::kMul && t.a == h2.dst && t.b == 0 && t.add == 3 && t.dst != 0 &&
+           t.dst != h2.dst && u.code == OpCode::kSqr && u.a == 0 && u.add == 0 && u.dst != 0 &&
+           u.dst != t.dst && f.code == OpCode::kDiv && f.a == t.dst && f.b == u.dst &&
+           f.dst == s_->result;
+#else
+    return false;
+#endif
+  }
+
+  void run_cubic_over_square(const double* x, const double* y, const double* z, std::size_t n) {
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
+    if (s_->escape) {
+      if (root_)
+        run_cubic_over_square<true, true>(x, y, z, n);
+      else
+        run_cubic_over_square<true, false>(x, y, z, n);
+    } else {
+      if (root_)
+        run_cubic_over_square<false, true>(x, y, z, n);
+      else
+        run_cubic_over_square<false, false>(x, y, z, n);
+    }
+#else
+    (void)x, (void)y, (void)z, (void)n;  // never called: cubic_over_square() is false here
+#endif
+  }
+
   // The orbits of a single-operation program, a few vectors at a time with h, the metrics, the
   // step and the masks in registers (on AVX-512 and AVX2, below).
   void run_single_op(const double* x, const double* y, const double* z, std::size_t n) {
@@ -826,6 +945,17 @@ class Machine {
     }
   }
 
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
+  template <int kAdd, bool kEscape, bool kExt>
+  void run_single_op(const double* x, const double* y, const double* z, std::size_t n) {
+    run_in_registers<SquareStep<kAdd>, kEscape, kExt>(x, y, z, n);
+  }
+  template <bool kEscape, bool kExt>
+  void run_cubic_over_square(const double* x, const double* y, const double* z, std::size_t n) {
+    run_in_registers<CubicOverSquareStep, kEscape, kExt>(x, y, z, n);
+  }
+#endif
+
 #if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
   // AVX-512: every orbit's state stays in registers for the whole batch. The steps run without
   // a branch on the data: a lane that decides freezes (its step count, metrics and extreme
@@ -836,17 +966,17 @@ class Machine {
   // lives in registers: state kept in stack arrays was stored at every step, and those stores
   // aliased (4 KiB apart) the loads of the points at some stack offsets, which made the speed
   // of a process depend on the size of its environment.
-  template <int kAdd, bool kEscape, bool kExt>
-  HWY_NOINLINE void run_single_op(const double* x, const double* y, const double* z,
-                                  std::size_t n) {
-    constexpr std::size_t kGroup = kAdd == 2 ? 2 : 4;  // c of each lane needs registers too
+  // The loop of every map with a step of its own (SquareStep, CubicOverSquareStep).
+  template <class Step, bool kEscape, bool kExt>
+  HWY_NOINLINE void run_in_registers(const double* x, const double* y, const double* z,
+                                     std::size_t n) {
+    const Step st(*s_);
+    constexpr std::size_t kGroup = Step::kGroup;
     // Steps between refills, and the waiting lanes that make a vector refill: 2 and 2 ran the
     // band of `qjulia bench --kernel` 1.01-1.42x as fast as 4 and 3 on an AMD EPYC (16 pairs).
     constexpr int kSteps = 2;
     constexpr int kRefillAt = 2;
     const D d;
-    const KernelOp& op = s_->kops[0];
-    const Q lit = broadcast(op.add_lit);
     const V r2 = hn::Set(d, s_->r2), iters = hn::Set(d, s_->iterations), one = hn::Set(d, 1.0);
     const V zero = hn::Zero(d);
     // Per group: h (and c), the steps taken k, the last metric a and the one before, the
@@ -896,7 +1026,7 @@ class Machine {
                 V{_mm512_mask_mov_pd(h[g].x.raw, ok, h0.x.raw)},
                 V{_mm512_mask_mov_pd(h[g].y.raw, ok, h0.y.raw)},
                 V{_mm512_mask_mov_pd(h[g].z.raw, ok, h0.z.raw)}};
-        if (kAdd == 2)
+        if (Step::kUsesC)
           c[g] = {V{_mm512_mask_mov_pd(c[g].w.raw, ok, q.w.raw)},
                   V{_mm512_mask_mov_pd(c[g].x.raw, ok, q.x.raw)},
                   V{_mm512_mask_mov_pd(c[g].y.raw, ok, q.y.raw)},
@@ -912,7 +1042,8 @@ class Machine {
     };
     for_groups<kGroup>([&](auto group) __attribute__((always_inline)) {
       constexpr std::size_t g = decltype(group)::value;
-      h[g] = c[g] = {zero, zero, zero, zero};
+      h[g] = Step::idle();
+      c[g] = {zero, zero, zero, zero};
       k[g] = a[g] = prev[g] = ext[g] = zero;
       pending[g] = left[g] = 0;
       live[g] = load(group, 0xff);
@@ -926,7 +1057,7 @@ class Machine {
           M exit;
           const __mmask8 run = live[g];
           // Lanes outside `run` (decided, or idle) compute 0.
-          const Q q = single_op_step_masked<kAdd, kEscape>(run, h[g], c[g], lit, r2, metric, exit);
+          const Q q = st.template step<kEscape>(run, h[g], c[g], r2, metric, exit);
           k[g] = V{_mm512_mask_add_pd(k[g].raw, run, k[g].raw, one.raw)};
           if (kExt)
             ext[g] = V{kEscape ? _mm512_mask_max_pd(ext[g].raw, run, ext[g].raw, metric.raw)
@@ -963,16 +1094,16 @@ class Machine {
   // AVX2: the AVX-512 path above with the masks as vectors (every bit of a lane set) and the
   // expanding loads done by lane tables (a masked load of the next points, then a permutation):
   // the state of kGroup vectors stays in registers, the steps run without a branch on the data,
-  // a decided lane freezes (masked updates, its iterate zeroed) until its vector refills.
-  template <int kAdd, bool kEscape, bool kExt>
-  HWY_NOINLINE void run_single_op(const double* x, const double* y, const double* z,
-                                  std::size_t n) {
-    constexpr std::size_t kGroup = kAdd == 2 ? 2 : 3;  // 16 registers: c of each lane needs some
+  // a decided lane freezes (masked updates, its iterate the step's idle value) until its vector
+  // refills.
+  template <class Step, bool kEscape, bool kExt>
+  HWY_NOINLINE void run_in_registers(const double* x, const double* y, const double* z,
+                                     std::size_t n) {
+    const Step st(*s_);
+    constexpr std::size_t kGroup = Step::kGroup;
     constexpr int kSteps = 4;                          // steps between refills
     constexpr int kRefillAt = 2;                       // waiting lanes that make a vector refill
     const D d;
-    const KernelOp& op = s_->kops[0];
-    const Q lit = broadcast(op.add_lit);
     const V r2 = hn::Set(d, s_->r2), iters = hn::Set(d, s_->iterations), one = hn::Set(d, 1.0);
     const V zero = hn::Zero(d);
     Q h[kGroup], c[kGroup];
@@ -1023,7 +1154,7 @@ class Machine {
                 V{_mm256_blendv_pd(h[g].x.raw, h0.x.raw, ok)},
                 V{_mm256_blendv_pd(h[g].y.raw, h0.y.raw, ok)},
                 V{_mm256_blendv_pd(h[g].z.raw, h0.z.raw, ok)}};
-        if (kAdd == 2)
+        if (Step::kUsesC)
           c[g] = {V{_mm256_blendv_pd(c[g].w.raw, q.w.raw, ok)},
                   V{_mm256_blendv_pd(c[g].x.raw, q.x.raw, ok)},
                   V{_mm256_blendv_pd(c[g].y.raw, q.y.raw, ok)},
@@ -1040,7 +1171,8 @@ class Machine {
     for_groups<kGroup>([&](auto group) __attribute__((always_inline)) {
       constexpr std::size_t g = decltype(group)::value;
       pending[g] = left[g] = _mm256_setzero_pd();
-      h[g] = c[g] = {zero, zero, zero, zero};
+      h[g] = Step::idle();
+      c[g] = {zero, zero, zero, zero};
       k[g] = a[g] = prev[g] = ext[g] = zero;
       live[g] = load(group, 0xf);
     });
@@ -1051,11 +1183,9 @@ class Machine {
           const __m256d run = live[g];
           V metric;
           M exit;
-          Q q = single_op_step<kAdd, kEscape>(h[g], c[g], lit, r2, metric, exit);
-          // Lanes outside `run` (decided, or idle) compute on from 0; their metric and exit are
-          // not used.
-          q = {V{_mm256_and_pd(q.w.raw, run)}, V{_mm256_and_pd(q.x.raw, run)},
-               V{_mm256_and_pd(q.y.raw, run)}, V{_mm256_and_pd(q.z.raw, run)}};
+          // Lanes outside `run` (decided, or empty) compute on from the step's idle value; their
+          // metric and exit are not used.
+          const Q q = st.template step<kEscape>(run, h[g], c[g], r2, metric, exit);
           k[g] = hn::Add(k[g], V{_mm256_and_pd(one.raw, run)});
           if (kExt)
             ext[g] = V{_mm256_blendv_pd(
