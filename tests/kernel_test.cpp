@@ -413,12 +413,14 @@ TEST(Kernel, RandomFormulasMatchTheScalarReferenceOnEveryTarget) {
   EXPECT_LT(excluded / trials, 0.05);
 }
 
-// h^2 plus nothing, c, a real number or a quaternion: the programs of one operation, which each
-// vector target runs through its own register-resident loop (refills of decided lanes included),
-// in both methods and both modes, with 4 to 12 iterations: f(p, trial) for each (trial 0 .. 15).
+// h^2 plus nothing, c, a real number or a quaternion, and a real factor of h^2 plus a number
+// or c: the programs of one operation, which each vector target runs through a register-resident
+// loop (refills of decided lanes included), in both methods and both modes, with 4 to 12
+// iterations: f(p, trial) for each (trial 0 .. 23).
 template <class F>
 void each_single_operation_map(F&& f) {
-  const char* const formulas[] = {"h^2", "h^2 + c", "h^2 - 0.8", "h^2 + [0.1,-0.6,0.2,0.05]"};
+  const char* const formulas[] = {
+      "h^2", "h^2 + c", "h^2 - 0.8", "h^2 + [0.1,-0.6,0.2,0.05]", "2*h^2 - 0.8", "0.5*h^2 + c"};
   int trial = 0;
   for (const char* formula : formulas)
     for (Method method : {Method::kEscape, Method::kCutoff})

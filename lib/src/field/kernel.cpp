@@ -672,6 +672,95 @@ HWY_INLINE V root_of(const KernelSetup& s, V k, V a, V b) {
   return hn::IfThenElse(hn::IsNaN(g), big, hn::Min(big, hn::Max(hn::Neg(big), g)));
 }
 
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
+// A chain of up to kLinks operations, the first on h, each next on the one before, with
+// literal operands only: a square, an analytic function, a negation, conjugate or inverse, a
+// product with, sum with or real factor of a literal, and the fused real factor and addition of
+// a literal (pq-quadratic's p h^2 + q, sine-julia's 1.8 sin(h), power-screw's h^1.5 + c). Each
+// operation computes what Machine::apply computes for it, so every lane gets what the sweeps
+// give.
+struct ChainStep {
+  static constexpr int kLinks = 3;
+  static constexpr bool kUsesC = false;
+  static constexpr std::size_t kGroup = 2;
+  KernelOp ops[kLinks];
+  int links = 0;
+  explicit ChainStep(const KernelSetup& s) : links(static_cast<int>(s.kops.size())) {
+    for (int i = 0; i < links; ++i) ops[i] = s.kops[i];
+  }
+  // Whether the operation can be a link (its operand aside).
+  static bool link(const KernelOp& op) {
+    switch (op.code) {
+      case OpCode::kNeg:
+      case OpCode::kConj:
+      case OpCode::kInv:
+      case OpCode::kSqr:
+      case OpCode::kAddReal:
+      case OpCode::kAddLit:
+      case OpCode::kScale:
+      case OpCode::kMulLit:
+      case OpCode::kLitMul:
+      case OpCode::kScaleAddReal:
+        return op.add != 2;
+      default:
+        return op.code >= OpCode::kExp && op.add == 0 && op.scale == 1;
+    }
+  }
+  // 1: finite, and inside every analytic function's vector range.
+  static HWY_INLINE Q idle() {
+    const V zero = hn::Zero(D());
+    return {hn::Set(D(), 1.0), zero, zero, zero};
+  }
+  // The fused real factor and addition of a product (Machine::with_add).
+  static HWY_INLINE Q with_add(const KernelOp& op, Q q) {
+    if (op.scale != 1) q = scale(hn::Set(D(), op.scale), q);
+    if (op.add == 1) q = add(q, broadcast(op.add_lit));
+    if (op.add == 3) q.w = hn::Add(q.w, hn::Set(D(), op.add_lit.w));
+    return q;
+  }
+  static HWY_INLINE Q apply(const KernelOp& op, const Q& a) {
+    const D d;
+    switch (op.code) {
+      case OpCode::kNeg:
+        return {hn::Neg(a.w), hn::Neg(a.x), hn::Neg(a.y), hn::Neg(a.z)};
+      case OpCode::kConj:
+        return {a.w, hn::Neg(a.x), hn::Neg(a.y), hn::Neg(a.z)};
+      case OpCode::kInv:
+        return inv(a);
+      case OpCode::kSqr:
+        return with_add(op, sqr(a));
+      case OpCode::kAddReal: {
+        Q q = a;
+        q.w = hn::Add(q.w, hn::Set(d, op.lit.w));
+        return q;
+      }
+      case OpCode::kAddLit:
+        return add(a, broadcast(op.lit));
+      case OpCode::kScale:
+        return with_add(op, scale(hn::Set(d, op.lit.w), a));
+      case OpCode::kMulLit:
+        return with_add(op, mul(a, broadcast(op.lit)));
+      case OpCode::kLitMul:
+        return with_add(op, mul(broadcast(op.lit), a));
+      case OpCode::kScaleAddReal: {
+        Q q = scale(hn::Set(d, op.lit.w), a);
+        q.w = hn::Add(q.w, hn::Set(d, op.lit.x));
+        return q;
+      }
+      default:
+        return analytic(op.code, a, op.lit.w);
+    }
+  }
+  template <bool kEscape>
+  HWY_INLINE Q step(RunMask run, const Q& h, const Q&, V r2, V& metric, M& exit) const {
+    Q q = apply(ops[0], h);
+    for (int i = 1; i < links; ++i) q = apply(ops[i], q);
+    metric = step_metric<kEscape>(q, h, r2, exit);
+    return keep(run, q, idle());
+  }
+};
+#endif
+
 class Machine {
  public:
   std::uint64_t run(const KernelSetup& s, const double* x, const double* y, const double* z,
@@ -692,6 +781,8 @@ class Machine {
       run_single_op(x, y, z, n);
     } else if (cubic_over_square()) {
       run_cubic_over_square(x, y, z, n);
+    } else if (chain()) {
+      run_chain(x, y, z, n);
     } else {
       queue(x, y, z, n);
       start();
@@ -877,10 +968,12 @@ class Machine {
 
   // A program that is one square of h plus an addition (h^2 + c in Julia and Mandelbrot
   // mode, h^2): run_single_op() keeps every orbit's state in registers for many steps.
+  // A real factor fused into the square (2*h^2 - 0.8) is not: SquareStep applies none. Such a
+  // map runs as a chain, or through the sweeps where it adds c per lane (Mandelbrot mode).
   bool single_op() const {
     if (s_->kops.size() != 1) return false;
     const KernelOp& op = s_->kops[0];
-    return op.code == OpCode::kSqr && op.a == 0 && op.dst == s_->result &&
+    return op.code == OpCode::kSqr && op.a == 0 && op.dst == s_->result && op.scale == 1 &&
            (op.add != 2 || (op.add_reg == s_->c_register && s_->c_register > 0));
   }
 
@@ -903,21 +996,54 @@ class Machine {
 
   void run_cubic_over_square(const double* x, const double* y, const double* z, std::size_t n) {
 #if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
-    if (s_->escape) {
-      if (root_)
-        run_cubic_over_square<true, true>(x, y, z, n);
-      else
-        run_cubic_over_square<true, false>(x, y, z, n);
-    } else {
-      if (root_)
-        run_cubic_over_square<false, true>(x, y, z, n);
-      else
-        run_cubic_over_square<false, false>(x, y, z, n);
-    }
+    run_step<CubicOverSquareStep>(x, y, z, n);
 #else
     (void)x, (void)y, (void)z, (void)n;  // never called: cubic_over_square() is false here
 #endif
   }
+
+  // A program of ChainStep's form: each operation a link, the first reading h, each next the
+  // register the one before wrote, h never overwritten, the last writing the result. AVX-512
+  // and AVX2 run it in registers (run_chain).
+  bool chain() const {
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
+    const std::vector<KernelOp>& k = s_->kops;
+    if (k.empty() || k.size() > static_cast<std::size_t>(ChainStep::kLinks)) return false;
+    for (std::size_t i = 0; i < k.size(); ++i)
+      if (!ChainStep::link(k[i]) || k[i].a != (i == 0 ? 0 : k[i - 1].dst) || k[i].dst == 0)
+        return false;
+    return k.back().dst == s_->result;
+#else
+    return false;
+#endif
+  }
+
+  void run_chain(const double* x, const double* y, const double* z, std::size_t n) {
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
+    run_step<ChainStep>(x, y, z, n);
+#else
+    (void)x, (void)y, (void)z, (void)n;  // never called: chain() is false here
+#endif
+  }
+
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
+  // The register loop of Step for this setup's method, keeping each orbit's extreme where the
+  // refinement values are asked for.
+  template <class Step>
+  void run_step(const double* x, const double* y, const double* z, std::size_t n) {
+    if (s_->escape) {
+      if (root_)
+        run_in_registers<Step, true, true>(x, y, z, n);
+      else
+        run_in_registers<Step, true, false>(x, y, z, n);
+    } else {
+      if (root_)
+        run_in_registers<Step, false, true>(x, y, z, n);
+      else
+        run_in_registers<Step, false, false>(x, y, z, n);
+    }
+  }
+#endif
 
   // The orbits of a single-operation program, a few vectors at a time with h, the metrics, the
   // step and the masks in registers (on AVX-512 and AVX2, below).
@@ -949,10 +1075,6 @@ class Machine {
   template <int kAdd, bool kEscape, bool kExt>
   void run_single_op(const double* x, const double* y, const double* z, std::size_t n) {
     run_in_registers<SquareStep<kAdd>, kEscape, kExt>(x, y, z, n);
-  }
-  template <bool kEscape, bool kExt>
-  void run_cubic_over_square(const double* x, const double* y, const double* z, std::size_t n) {
-    run_in_registers<CubicOverSquareStep, kEscape, kExt>(x, y, z, n);
   }
 #endif
 
