@@ -7,9 +7,10 @@
 // of the new iterates and marks the lanes whose orbit has decided. Those lanes are retired into
 // a buffer of finished orbits and refilled at once with the next waiting points (an expanding
 // load on AVX-512), so the vectors stay full. F is computed for the finished orbits in bulk.
-// Two kinds of program run instead in loops that keep a few vectors of orbits in registers
-// (Machine::run_in_registers): one square plus an addition (h^2 + c), and Newton's map of a
-// cubic (CubicOverSquareStep), each lane computing exactly what the sweeps compute.
+// Three kinds of program run instead in loops that keep a few vectors of orbits in registers
+// (Machine::run_in_registers): one square plus an addition (h^2 + c, SquareStep), Newton's map
+// of a cubic (CubicOverSquareStep) and chains of operations on literals (ChainStep), each lane
+// computing exactly what the sweeps compute.
 #include "field/kernel.h"
 
 #include <algorithm>
