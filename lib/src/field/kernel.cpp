@@ -780,10 +780,12 @@ class Machine {
     setup_slots();
     if (single_op()) {
       run_single_op(x, y, z, n);
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
     } else if (cubic_over_square()) {
-      run_cubic_over_square(x, y, z, n);
+      run_step<CubicOverSquareStep>(x, y, z, n);
     } else if (chain()) {
-      run_chain(x, y, z, n);
+      run_step<ChainStep>(x, y, z, n);
+#endif
     } else {
       queue(x, y, z, n);
       start();
@@ -979,7 +981,7 @@ class Machine {
   }
 
   // A program of CubicOverSquareStep's form: h2 = s0 h^2; t = s1 (h2 h) + a (a real); u = s2
-  // h^2; f = t inv(u). AVX-512 and AVX2 run it in registers (run_cubic_over_square).
+  // h^2; f = t inv(u). AVX-512 and AVX2 run it in registers (run_step).
   bool cubic_over_square() const {
 #if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
     const std::vector<KernelOp>& k = s_->kops;
@@ -995,17 +997,9 @@ class Machine {
 #endif
   }
 
-  void run_cubic_over_square(const double* x, const double* y, const double* z, std::size_t n) {
-#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
-    run_step<CubicOverSquareStep>(x, y, z, n);
-#else
-    (void)x, (void)y, (void)z, (void)n;  // never called: cubic_over_square() is false here
-#endif
-  }
-
   // A program of ChainStep's form: each operation a link, the first reading h, each next the
   // register the one before wrote, h never overwritten, the last writing the result. AVX-512
-  // and AVX2 run it in registers (run_chain).
+  // and AVX2 run it in registers (run_step).
   bool chain() const {
 #if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
     const std::vector<KernelOp>& k = s_->kops;
@@ -1016,14 +1010,6 @@ class Machine {
     return k.back().dst == s_->result;
 #else
     return false;
-#endif
-  }
-
-  void run_chain(const double* x, const double* y, const double* z, std::size_t n) {
-#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
-    run_step<ChainStep>(x, y, z, n);
-#else
-    (void)x, (void)y, (void)z, (void)n;  // never called: chain() is false here
 #endif
   }
 
