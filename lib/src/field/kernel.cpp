@@ -1075,7 +1075,7 @@ class Machine {
   // lives in registers: state kept in stack arrays was stored at every step, and those stores
   // aliased (4 KiB apart) the loads of the points at some stack offsets, which made the speed
   // of a process depend on the size of its environment.
-  // The loop of every map with a step of its own (SquareStep, CubicOverSquareStep).
+  // The loop of every map with a step of its own (SquareStep, CubicOverSquareStep, ChainStep).
   template <class Step, bool kEscape, bool kExt>
   HWY_NOINLINE void run_in_registers(const double* x, const double* y, const double* z,
                                      std::size_t n) {
@@ -1165,7 +1165,7 @@ class Machine {
           V metric;
           M exit;
           const __mmask8 run = live[g];
-          // Lanes outside `run` (decided, or idle) compute 0.
+          // Lanes outside `run` (decided, or empty) compute on from the step's idle value.
           const Q q = st.template step<kEscape>(run, h[g], c[g], r2, metric, exit);
           k[g] = V{_mm512_mask_add_pd(k[g].raw, run, k[g].raw, one.raw)};
           if (kExt)
