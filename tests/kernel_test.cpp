@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -473,9 +474,9 @@ TEST(Kernel, RefinementValuesMatchTheScalarOnesOnEveryTarget) {
   }
 }
 
-// Newton's maps of cubics, (s1 h^3 + a) / (s2 h^2), which AVX-512 runs in a register loop of
-// their own (the other targets through the sweeps): both methods, 4 to 12 iterations, over
-// newton-cubic's box: f(p, trial) for each (trial 0 .. 7).
+// Newton's maps of cubics, (s1 h^3 + a) / (s2 h^2), which AVX-512 and AVX2 run in a register
+// loop of their own: both methods, 4 to 12 iterations, over newton-cubic's box: f(p, trial) for
+// each (trial 0 .. 7).
 template <class F>
 void each_cubic_over_square_map(F&& f) {
   const char* const formulas[] = {"(2*h^3+1)/(3*h^2)", "(h^3 - 0.7)/h^2", "(0.5*h^3+2)/(1.5*h^2)",
@@ -500,6 +501,122 @@ TEST(Kernel, CubicOverSquareMapsMatchTheScalarReferenceOnEveryTarget) {
     EXPECT_LT(check_against_reference(p, 997, 900 + trial), 0.02);
     EXPECT_GT(check_roots_against_scalar(p, 997, 950 + trial), 900);
   });
+}
+
+// A random map of one of the forms the register loops take, and the loops it may take on
+// AVX-512 and AVX2: s h^2 + q (the square loop without a factor, a chain with one), Newton's
+// (s h^3 + a) / (t h^2), or one to three operations with literal operands, each on the one
+// before (a chain, or the square loop when that is a square and an addition). Literals are
+// random; a factor is left out, random, or a written 1 (a factor of 1 fused into the square
+// leaves it to the square loop).
+struct ShapedMap {
+  std::string formula;
+  std::vector<detail::KernelLoop> julia, mandelbrot;  // the loops it may take in each mode
+};
+
+ShapedMap random_register_map(std::mt19937_64& rng) {
+  using L = detail::KernelLoop;
+  auto real = [&](double lo, double hi) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, "%.3f", std::uniform_real_distribution<double>(lo, hi)(rng));
+    return std::string(buf);
+  };
+  auto quat = [&] {
+    return "[" + real(-0.8, 0.8) + "," + real(-0.8, 0.8) + "," + real(-0.8, 0.8) + "," +
+           real(-0.8, 0.8) + "]";
+  };
+  auto pick = [&](int n) { return std::uniform_int_distribution<int>(0, n - 1)(rng); };
+  // A factor: 0 left out, 1 written as 1, 2 random (positive).
+  auto factor = [&](std::string* text) {
+    const int k = pick(3);
+    *text = k == 0 ? "" : k == 1 ? "1*" : real(0.3, 2.5) + "*";
+    return k;
+  };
+  ShapedMap m;
+  switch (pick(3)) {
+    case 0: {
+      std::string s;
+      const int k = factor(&s);
+      static const char* const kinds[] = {"", " + c", " - c", " + R", " + Q"};
+      const int kind = pick(5);
+      std::string q = kinds[kind];
+      if (kind == 3) q = " + " + real(-1.2, 0.6);
+      if (kind == 4) q = " + " + quat();
+      m.formula = s + "h^2" + q;
+      m.julia = {k < 2 ? L::kSquare : L::kChain};
+      m.mandelbrot = m.julia;
+      // c differs from lane to lane: only the square loop adds it (and does not subtract it).
+      if (kind == 1 || kind == 2) m.mandelbrot = {k < 2 && kind == 1 ? L::kSquare : L::kSweeps};
+      break;
+    }
+    case 1: {
+      std::string s, t;
+      factor(&s);
+      factor(&t);
+      m.formula = "(" + s + "h^3 " + (pick(2) ? "+ " : "- ") + real(0.1, 2.0) + ")/(" + t + "h^2)";
+      m.julia = m.mandelbrot = {L::kCubicOverSquare};
+      break;
+    }
+    default: {
+      static const char* const links[] = {
+          "sqr(X)",  "(X)^2",   "-(X)",    "conj(X)", "inv(X)",  "(X) + R",    "(X) + Q",
+          "R*(X)",   "(X)*Q",   "Q*(X)",   "exp(X)",  "log(X)",  "sin(X)",     "cos(X)",
+          "sqrt(X)", "tanh(X)", "sinh(X)", "cosh(X)", "(X)^1.5", "R*(X)^2 + R"};
+      std::string f = "h";
+      for (int n = 1 + pick(3); n > 0; --n) {
+        std::string out;
+        for (char ch : std::string(links[pick(20)])) {
+          if (ch == 'X')
+            out += f;
+          else if (ch == 'R')
+            out += real(0.3, 1.5);
+          else if (ch == 'Q')
+            out += quat();
+          else
+            out += ch;
+        }
+        f = out;
+      }
+      m.formula = f;
+      m.julia = m.mandelbrot = {L::kChain, L::kSquare};  // a square and an addition alone
+    }
+  }
+  return m;
+}
+
+TEST(Kernel, RandomMapsOfTheRegisterLoopsTakeThemAndMatchTheScalarReference) {
+  std::mt19937_64 rng(20261206);
+  double excluded = 0;
+  const int trials = 120;
+  int roots = 0;
+  for (int trial = 0; trial < trials; ++trial) {
+    const ShapedMap m = random_register_map(rng);
+    Params p;
+    p.formula = m.formula;
+    p.set_constant("c", {-0.2, 0.8, 0.1, 0.0});
+    p.method = trial % 2 ? Method::kEscape : Method::kCutoff;
+    p.mode = trial % 4 == 3 ? Mode::kMandelbrot : Mode::kJulia;
+    p.iterations = 3 + trial % 9;
+    p.bailout = p.method == Method::kEscape ? 2.5 : 0.05;
+    SCOPED_TRACE(p.formula + " " + to_string(p.method) +
+                 (p.mode == Mode::kMandelbrot ? " Mandelbrot" : " Julia"));
+    const std::vector<detail::KernelLoop>& may =
+        p.mode == Mode::kMandelbrot ? m.mandelbrot : m.julia;
+    const Classifier cls(p);
+    ASSERT_NE(cls.kernel(), nullptr);
+    for (std::int64_t target : detail::kernel_dispatch_targets()) {
+      hwy::SetSupportedTargetsForTest(target);
+      const detail::KernelLoop loop = detail::kernel_loop(*cls.kernel());
+      EXPECT_TRUE(std::find(may.begin(), may.end(), loop) != may.end())
+          << hwy::TargetName(target) << " runs it in " << detail::to_string(loop);
+    }
+    hwy::SetSupportedTargetsForTest(0);
+    excluded += check_against_reference(p, 301, 3000 + trial);
+    roots += check_roots_against_scalar(p, 301, 4000 + trial);
+  }
+  // The comparisons must cover the points, not skip them.
+  EXPECT_LT(excluded / trials, 0.05);
+  EXPECT_GT(roots, 0.9 * 301 * trials);
 }
 
 TEST(Kernel, AnalyticFunctionsMatchTheScalarOnesOnEveryTarget) {

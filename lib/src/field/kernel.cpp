@@ -778,21 +778,31 @@ class Machine {
                                  : kMaxInFlight / 4;
     lanes_ = std::min(lanes_, (n + nl - 1) / nl * nl);
     setup_slots();
-    if (single_op()) {
-      run_single_op(x, y, z, n);
+    switch (loop()) {
+      case KernelLoop::kSquare:
+        run_single_op(x, y, z, n);
+        break;
 #if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
-    } else if (cubic_over_square()) {
-      run_step<CubicOverSquareStep>(x, y, z, n);
-    } else if (chain()) {
-      run_step<ChainStep>(x, y, z, n);
+      case KernelLoop::kCubicOverSquare:
+        run_step<CubicOverSquareStep>(x, y, z, n);
+        break;
+      case KernelLoop::kChain:
+        run_step<ChainStep>(x, y, z, n);
+        break;
 #endif
-    } else {
-      queue(x, y, z, n);
-      start();
-      while (live_ > 0) sweep();
+      default:
+        queue(x, y, z, n);
+        start();
+        while (live_ > 0) sweep();
     }
     flush();
     return steps_;
+  }
+
+  // The loop run() takes for s's program on this target.
+  KernelLoop loop(const KernelSetup& s) {
+    s_ = &s;
+    return loop();
   }
 
  private:
@@ -967,6 +977,13 @@ class Machine {
       hn::Store(hn::Or(all, hn::Load(d, pending_ + o)), d, pending_ + o);
       any_pending_ = true;
     }
+  }
+
+  KernelLoop loop() const {
+    if (single_op()) return KernelLoop::kSquare;
+    if (cubic_over_square()) return KernelLoop::kCubicOverSquare;
+    if (chain()) return KernelLoop::kChain;
+    return KernelLoop::kSweeps;
   }
 
   // A program that is one square of h plus an addition (h^2 + c in Julia and Mandelbrot
@@ -1633,12 +1650,19 @@ class Machine {
   std::size_t fcount_ = 0;
 };
 
+// This thread's machine: large, so kept per thread rather than on the stack.
+Machine& thread_machine() {
+  thread_local std::unique_ptr<Machine> machine;
+  if (!machine) machine = std::make_unique<Machine>();
+  return *machine;
+}
+
 std::uint64_t KernelField(const KernelSetup& s, const double* x, const double* y, const double* z,
                           std::size_t n, double* out, bool root) {
-  thread_local std::unique_ptr<Machine> machine;  // large: kept per thread, not on the stack
-  if (!machine) machine = std::make_unique<Machine>();
-  return machine->run(s, x, y, z, n, out, root);
+  return thread_machine().run(s, x, y, z, n, out, root);
 }
+
+int KernelLoopOf(const KernelSetup& s) { return static_cast<int>(thread_machine().loop(s)); }
 
 void KernelAnalytic(int code, const Quat* in, std::size_t n, double exponent, Quat* out) {
   const D d;
@@ -1668,6 +1692,24 @@ namespace qjulia::detail {
 
 HWY_EXPORT(KernelField);
 HWY_EXPORT(KernelAnalytic);
+HWY_EXPORT(KernelLoopOf);
+
+KernelLoop kernel_loop(const KernelSetup& setup) {
+  return static_cast<KernelLoop>(HWY_DYNAMIC_DISPATCH(KernelLoopOf)(setup));
+}
+
+const char* to_string(KernelLoop loop) {
+  switch (loop) {
+    case KernelLoop::kSquare:
+      return "square";
+    case KernelLoop::kCubicOverSquare:
+      return "cubic-over-square";
+    case KernelLoop::kChain:
+      return "chain";
+    default:
+      return "sweeps";
+  }
+}
 
 std::vector<Quat> kernel_analytic(OpCode code, const std::vector<Quat>& in, double exponent) {
   std::vector<Quat> out(in.size());
@@ -1746,7 +1788,8 @@ void prepare_kernel(KernelSetup& s) {
     ops.push_back(op);
   }
   // Fuse a real factor and an addition into the square or product before them when that
-  // product is not read again: h^2 + c, p*h^2 + q, 2*h^3 + 1, 3*h^2.
+  // product is not read again: h^2 + c, p*h^2 + q, 2*h^3 + 1, 3*h^2; the addition also after a
+  // fused factor (0.5*h^2 + c).
   std::vector<KernelOp> fused;
   for (std::size_t i = 0; i < ops.size(); ++i) {
     KernelOp op = ops[i];
@@ -1766,8 +1809,6 @@ void prepare_kernel(KernelSetup& s) {
         }
         op.dst = next.dst;
         ++i;
-        fused.push_back(op);
-        continue;
       }
     }
     if (product && op.add == 0 && i + 1 < ops.size()) {

@@ -91,6 +91,15 @@ bool kernel_supports(const Op* ops, int op_count);
 std::uint64_t kernel_field(const KernelSetup& setup, const double* x, const double* y,
                            const double* z, std::size_t n, double* out, bool root = false);
 
+/// How the vector kernel runs a program's orbits: in registers for one square of h plus an
+/// addition (h^2 + c), Newton's maps of a cubic ((s h^3 + a) / (t h^2)) and chains of up to
+/// three operations with literal operands (AVX-512 and AVX2 only for the last two), or through
+/// the general sweeps (each operation over all lanes in memory).
+enum class KernelLoop { kSquare, kCubicOverSquare, kChain, kSweeps };
+/// The loop kernel_field() takes for setup's program on the current target (for tests).
+KernelLoop kernel_loop(const KernelSetup& setup);
+const char* to_string(KernelLoop loop);
+
 /// One analytic function (kExp .. kPowReal, the exponent for the latter) on each quaternion, by
 /// the vector code of the current target: for testing it against the scalar functions.
 std::vector<Quat> kernel_analytic(OpCode code, const std::vector<Quat>& in, double exponent);
