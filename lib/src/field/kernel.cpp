@@ -779,10 +779,10 @@ class Machine {
     lanes_ = std::min(lanes_, (n + nl - 1) / nl * nl);
     setup_slots();
     switch (loop()) {
-      case KernelLoop::kSquare:
-        run_single_op(x, y, z, n);
-        break;
 #if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
+      case KernelLoop::kSquare:
+        run_square(x, y, z, n);
+        break;
       case KernelLoop::kCubicOverSquare:
         run_step<CubicOverSquareStep>(x, y, z, n);
         break;
@@ -987,14 +987,18 @@ class Machine {
   }
 
   // A program that is one square of h plus an addition (h^2 + c in Julia and Mandelbrot
-  // mode, h^2): run_single_op() keeps every orbit's state in registers for many steps.
-  // A real factor fused into the square (2*h^2 - 0.8) is not: SquareStep applies none. Such a
-  // map runs as a chain, or through the sweeps where it adds c per lane (Mandelbrot mode).
+  // mode, h^2): AVX-512 and AVX2 run it in registers (run_square). A real factor fused into
+  // the square (2*h^2 - 0.8) is not: SquareStep applies none. Such a map runs as a chain, or
+  // through the sweeps where it adds c per lane (Mandelbrot mode).
   bool single_op() const {
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
     if (s_->kops.size() != 1) return false;
     const KernelOp& op = s_->kops[0];
     return op.code == OpCode::kSqr && op.a == 0 && op.dst == s_->result && op.scale == 1 &&
            (op.add != 2 || (op.add_reg == s_->c_register && s_->c_register > 0));
+#else
+    return false;
+#endif
   }
 
   // A program of CubicOverSquareStep's form: h2 = s0 h^2; t = s1 (h2 h) + a (a real); u = s2
@@ -1031,8 +1035,24 @@ class Machine {
   }
 
 #if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
+  // The square loop for the addition the program fuses into its square: none, a literal, c
+  // (per lane in Mandelbrot mode) or a real.
+  void run_square(const double* x, const double* y, const double* z, std::size_t n) {
+    switch (s_->kops[0].add) {
+      case 0:
+        return run_step<SquareStep<0>>(x, y, z, n);
+      case 1:
+        return run_step<SquareStep<1>>(x, y, z, n);
+      case 2:
+        return run_step<SquareStep<2>>(x, y, z, n);
+      default:
+        return run_step<SquareStep<3>>(x, y, z, n);
+    }
+  }
+
   // The register loop of Step for this setup's method, keeping each orbit's extreme where the
-  // refinement values are asked for.
+  // refinement values are asked for (root_of; F, field_of, reads the last metric and the one
+  // before).
   template <class Step>
   void run_step(const double* x, const double* y, const double* z, std::size_t n) {
     if (s_->escape) {
@@ -1046,39 +1066,6 @@ class Machine {
       else
         run_in_registers<Step, false, false>(x, y, z, n);
     }
-  }
-#endif
-
-  // The orbits of a single-operation program, a few vectors at a time with h, the metrics, the
-  // step and the masks in registers (on AVX-512 and AVX2, below).
-  void run_single_op(const double* x, const double* y, const double* z, std::size_t n) {
-    const int add = s_->kops[0].add;
-    if (root_)
-      run_single_op<true>(add, x, y, z, n);
-    else
-      run_single_op<false>(add, x, y, z, n);
-  }
-  // The extreme of each orbit's metric is kept only for the refinement values (root_of); F
-  // (field_of) reads the last metric and the one before.
-  template <bool kExt>
-  void run_single_op(int add, const double* x, const double* y, const double* z, std::size_t n) {
-    if (s_->escape) {
-      if (add == 0) run_single_op<0, true, kExt>(x, y, z, n);
-      if (add == 1) run_single_op<1, true, kExt>(x, y, z, n);
-      if (add == 2) run_single_op<2, true, kExt>(x, y, z, n);
-      if (add == 3) run_single_op<3, true, kExt>(x, y, z, n);
-    } else {
-      if (add == 0) run_single_op<0, false, kExt>(x, y, z, n);
-      if (add == 1) run_single_op<1, false, kExt>(x, y, z, n);
-      if (add == 2) run_single_op<2, false, kExt>(x, y, z, n);
-      if (add == 3) run_single_op<3, false, kExt>(x, y, z, n);
-    }
-  }
-
-#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
-  template <int kAdd, bool kEscape, bool kExt>
-  void run_single_op(const double* x, const double* y, const double* z, std::size_t n) {
-    run_in_registers<SquareStep<kAdd>, kEscape, kExt>(x, y, z, n);
   }
 #endif
 
@@ -1346,16 +1333,6 @@ class Machine {
       if (!any) break;
     }
     live_ = 0;
-  }
-#else
-  // Targets without a loop of their own (never dispatched: the kernel runs on AVX2 and AVX-512
-  // only) run the program through the sweeps.
-  template <int kAdd, bool kEscape, bool kExt>
-  HWY_NOINLINE void run_single_op(const double* x, const double* y, const double* z,
-                                  std::size_t n) {
-    queue(x, y, z, n);
-    start();
-    while (live_ > 0) sweep();
   }
 #endif
 
