@@ -241,15 +241,17 @@ double reference_field(const Params& p, double x, double y, double z) {
   return clamp(-t_prev);
 }
 
+// A random number of [lo, hi) as a formula writes it, with three decimals.
+std::string random_literal(std::mt19937_64& rng, double lo, double hi) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3f", std::uniform_real_distribution<double>(lo, hi)(rng));
+  return buf;
+}
+
 // Random expressions in h and the constants over the whole language the kernel covers.
 std::string random_formula(std::mt19937_64& rng, int depth) {
   std::uniform_int_distribution<int> pick(0, depth <= 0 ? 3 : 14);
-  std::uniform_real_distribution<double> lit(-1.5, 1.5);
-  auto signed_number = [&] {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.3f", lit(rng));
-    return std::string(buf);
-  };
+  auto signed_number = [&] { return random_literal(rng, -1.5, 1.5); };
   auto number = [&] {
     const std::string s = signed_number();
     return s[0] == '-' ? "(" + s + ")" : s;
@@ -516,11 +518,7 @@ struct ShapedMap {
 
 ShapedMap random_register_map(std::mt19937_64& rng) {
   using L = detail::KernelLoop;
-  auto real = [&](double lo, double hi) {
-    char buf[32];
-    std::snprintf(buf, sizeof buf, "%.3f", std::uniform_real_distribution<double>(lo, hi)(rng));
-    return std::string(buf);
-  };
+  auto real = [&](double lo, double hi) { return random_literal(rng, lo, hi); };
   auto quat = [&] {
     return "[" + real(-0.8, 0.8) + "," + real(-0.8, 0.8) + "," + real(-0.8, 0.8) + "," +
            real(-0.8, 0.8) + "]";

@@ -979,32 +979,31 @@ class Machine {
     }
   }
 
+  // The register loops run on AVX-512 and AVX2 only; elsewhere every program takes the sweeps.
   KernelLoop loop() const {
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
     if (single_op()) return KernelLoop::kSquare;
     if (cubic_over_square()) return KernelLoop::kCubicOverSquare;
     if (chain()) return KernelLoop::kChain;
+#endif
     return KernelLoop::kSweeps;
   }
 
-  // A program that is one square of h plus an addition (h^2 + c in Julia and Mandelbrot
-  // mode, h^2): AVX-512 and AVX2 run it in registers (run_square). A real factor fused into
-  // the square (2*h^2 - 0.8) is not: SquareStep applies none. Such a map runs as a chain, or
-  // through the sweeps where it adds c per lane (Mandelbrot mode).
-  bool single_op() const {
 #if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
+  // A program that is one square of h plus an addition (h^2 + c in Julia and Mandelbrot
+  // mode, h^2), run by run_square. A real factor fused into the square (2*h^2 - 0.8) is not:
+  // SquareStep applies none. Such a map runs as a chain, or through the sweeps where it adds c
+  // per lane (Mandelbrot mode).
+  bool single_op() const {
     if (s_->kops.size() != 1) return false;
     const KernelOp& op = s_->kops[0];
     return op.code == OpCode::kSqr && op.a == 0 && op.dst == s_->result && op.scale == 1 &&
            (op.add != 2 || (op.add_reg == s_->c_register && s_->c_register > 0));
-#else
-    return false;
-#endif
   }
 
   // A program of CubicOverSquareStep's form: h2 = s0 h^2; t = s1 (h2 h) + a (a real); u = s2
-  // h^2; f = t inv(u). AVX-512 and AVX2 run it in registers (run_step).
+  // h^2; f = t inv(u).
   bool cubic_over_square() const {
-#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
     const std::vector<KernelOp>& k = s_->kops;
     if (k.size() != 4) return false;
     const KernelOp &h2 = k[0], &t = k[1], &u = k[2], &f = k[3];
@@ -1013,28 +1012,19 @@ class Machine {
            t.dst != h2.dst && u.code == OpCode::kSqr && u.a == 0 && u.add == 0 && u.dst != 0 &&
            u.dst != t.dst && f.code == OpCode::kDiv && f.a == t.dst && f.b == u.dst &&
            f.dst == s_->result;
-#else
-    return false;
-#endif
   }
 
   // A program of ChainStep's form: each operation a link, the first reading h, each next the
-  // register the one before wrote, h never overwritten, the last writing the result. AVX-512
-  // and AVX2 run it in registers (run_step).
+  // register the one before wrote, h never overwritten, the last writing the result.
   bool chain() const {
-#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
     const std::vector<KernelOp>& k = s_->kops;
     if (k.empty() || k.size() > static_cast<std::size_t>(ChainStep::kLinks)) return false;
     for (std::size_t i = 0; i < k.size(); ++i)
       if (!ChainStep::link(k[i]) || k[i].a != (i == 0 ? 0 : k[i - 1].dst) || k[i].dst == 0)
         return false;
     return k.back().dst == s_->result;
-#else
-    return false;
-#endif
   }
 
-#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
   // The square loop for the addition the program fuses into its square: none, a literal, c
   // (per lane in Mandelbrot mode) or a real.
   void run_square(const double* x, const double* y, const double* z, std::size_t n) {

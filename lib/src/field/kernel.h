@@ -91,10 +91,10 @@ bool kernel_supports(const Op* ops, int op_count);
 std::uint64_t kernel_field(const KernelSetup& setup, const double* x, const double* y,
                            const double* z, std::size_t n, double* out, bool root = false);
 
-/// How the vector kernel runs a program's orbits: in registers for one square of h plus an
-/// addition (h^2 + c), Newton's maps of a cubic ((s h^3 + a) / (t h^2)) and chains of up to
-/// three operations with literal operands (AVX-512 and AVX2 only for the last two), or through
-/// the general sweeps (each operation over all lanes in memory).
+/// How the vector kernel runs a program's orbits: on AVX-512 and AVX2 in registers for one square
+/// of h plus an addition (h^2 + c), Newton's maps of a cubic ((s h^3 + a) / (t h^2)) and chains
+/// of up to three operations with literal operands; any other program, and every program on
+/// other targets, through the general sweeps (each operation over all lanes in memory).
 enum class KernelLoop { kSquare, kCubicOverSquare, kChain, kSweeps };
 /// The loop kernel_field() takes for setup's program on the current target (for tests).
 KernelLoop kernel_loop(const KernelSetup& setup);
