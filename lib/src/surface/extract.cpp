@@ -42,6 +42,7 @@ struct BrickMeasure {
     std::size_t faces = 0, vertices = 0;
     double area = 0, volume = 0;
     std::array<double, 3> lo{HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    std::array<double, 3> normal_sum{0, 0, 0};  // of its faces' (b - a) x (c - a)
   };
   std::vector<Comp> comps;
   // (foreign vertex, local comp); link_components() makes them pairs of whole-mesh components.
@@ -62,9 +63,9 @@ struct BrickRange {
 };
 
 // Each face of a brick (tri[0 .. faces), corner: each face corner's local slot): its local
-// component (that of its first corner's slot, written to face_comp), its area and signed volume
-// relative to the origin (added to its component's), and whether it is degenerate. `at`: each
-// slot's position relative to the origin.
+// component (that of its first corner's slot, written to face_comp), its area, its signed volume
+// relative to the brick's base point and its (b - a) x (c - a) (added to its component's), and
+// whether it is degenerate. `at`: each slot's position relative to the base point.
 void measure_faces(const std::array<std::uint32_t, 3>* tri, std::size_t faces,
                    const std::uint32_t* corner, const std::vector<std::uint32_t>& comp_of,
                    const std::array<double, 3>* at, std::uint32_t* face_comp, BrickMeasure& bm) {
@@ -88,6 +89,7 @@ void measure_faces(const std::array<std::uint32_t, 3>* tri, std::size_t faces,
     ++cm.faces;
     cm.area += area;
     cm.volume += volume;
+    for (int a = 0; a < 3; ++a) cm.normal_sum[a] += n[a];
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || area == 0) ++bm.degenerate;
   }
 }
@@ -189,9 +191,10 @@ void pair_in_table(const std::array<std::uint32_t, 3>* tri, std::size_t faces,
 }
 
 // Measures a brick's faces (written in `mesh` at r.face): area and signed volume relative to
-// `origin`, components within the brick, and the pairing of the half-edges inside the brick
-// (those on the brick's faces, `border`, pair with the neighbours'). Writes each face's local
-// component to face_comp.
+// `origin` (computed relative to a point of the brick, to the precision of the brick's small
+// coordinates, then moved to `origin`), components within the brick, and the pairing of the
+// half-edges inside the brick (those on the brick's faces, `border`, pair with the neighbours').
+// Writes each face's local component to face_comp.
 template <class PositionOf>
 BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, const BrickRange& r,
                            const std::vector<std::array<std::uint32_t, 2>>* border,
@@ -253,8 +256,13 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
     comp_of[s] = comp_of[root];
   }
   bm.owned_comp.assign(comp_of.begin(), comp_of.begin() + r.edges);
-  // Each slot's position relative to the origin, converted once (a vertex is a corner of
-  // about six faces).
+  // Each slot's position relative to the base point (the first face's first corner), converted
+  // once (a vertex is a corner of about six faces).
+  std::array<double, 3> base = origin;
+  if (r.faces > 0) {
+    const auto& p = position_of(tri[0][0]);
+    base = {p[0], p[1], p[2]};
+  }
   local_at.resize(slots);
   for (std::size_t v = 0; v < owned; ++v) {
     BrickMeasure::Comp& c = bm.comps[comp_of[v]];
@@ -263,16 +271,21 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
     for (int a = 0; a < 3; ++a) {
       c.lo[a] = std::min<double>(c.lo[a], p[a]);
       c.hi[a] = std::max<double>(c.hi[a], p[a]);
-      local_at[v][a] = static_cast<double>(p[a]) - origin[a];
+      local_at[v][a] = static_cast<double>(p[a]) - base[a];
     }
   }
   bm.links.reserve(foreign.size());
   for (std::size_t f = 0; f < foreign.size(); ++f) {
     bm.links.push_back({foreign[f], comp_of[owned + f]});
     const auto& p = position_of(foreign[f]);
-    for (int a = 0; a < 3; ++a) local_at[owned + f][a] = static_cast<double>(p[a]) - origin[a];
+    for (int a = 0; a < 3; ++a) local_at[owned + f][a] = static_cast<double>(p[a]) - base[a];
   }
   measure_faces(tri, r.faces, corner.data(), comp_of, local_at.data(), face_comp, bm);
+  // Relative to `origin`: det(a + t, b + t, c + t) = det(a, b, c) + t . (b - a) x (c - a) for the
+  // shift t from `origin` to the base point.
+  const std::array<double, 3> t{base[0] - origin[0], base[1] - origin[1], base[2] - origin[2]};
+  for (BrickMeasure::Comp& c : bm.comps)
+    c.volume += (t[0] * c.normal_sum[0] + t[1] * c.normal_sum[1] + t[2] * c.normal_sum[2]) / 6.0;
   // The half-edges: each edge inside the brick has its two half-edges here, opposite; one
   // alone must be on a brick face (`border`, in the same direction), paired with the
   // neighbour's later.
