@@ -490,10 +490,11 @@ Params random_set(std::mt19937_64& rng) {
 
 TEST(Extract, RandomSetsGiveClosedEmbeddedSurfacesThatTheirBricksMeasure) {
   // What the presets' tests check, on sets no one chose: the surface is closed, manifold and
-  // oriented, no two of its triangles cross (CGAL's exact test), and the bricks' measures are
-  // those of a pass over the whole mesh. Among these sets, h^-2 + c (cut-off) at 31 voxels is a
-  // speck of volume 4.3e-11 about two units from the grid's origin, which the bricks measured
-  // 1.5e-9 off when they summed their volumes relative to that origin.
+  // oriented, no two of its triangles cross (CGAL's exact test), the bricks' measures are those
+  // of a pass over the whole mesh, and one thread makes the same mesh as all. Among these sets,
+  // h^-2 + c (cut-off) at 31 voxels is a speck of volume 4.3e-11 about two units from the grid's
+  // origin, which the bricks measured 1.5e-9 off when they summed their volumes relative to that
+  // origin.
   std::mt19937_64 rng(6);
   int meshed = 0;
   for (int i = 0; i < 60; ++i) {
@@ -511,6 +512,11 @@ TEST(Extract, RandomSetsGiveClosedEmbeddedSurfacesThatTheirBricksMeasure) {
     EXPECT_TRUE(detail::self_intersecting_face_pairs(mesh).empty());
     ASSERT_TRUE(es.measure_valid);
     expect_same_measure(es.measure, whole);
+    // The same mesh on one thread.
+    TriMesh one;
+    tbb::task_arena(1).execute([&] { one = extract(sample(p), {}); });
+    EXPECT_EQ(one.positions, mesh.positions);
+    EXPECT_EQ(one.triangles, mesh.triangles);
   }
   // Most random sets have a surface in their box: the checks above ran on them.
   EXPECT_GE(meshed, 40);
