@@ -490,11 +490,11 @@ Params random_set(std::mt19937_64& rng) {
 
 TEST(Extract, RandomSetsGiveClosedEmbeddedSurfacesThatTheirBricksMeasure) {
   // What the presets' tests check, on sets no one chose: the surface is closed, manifold and
-  // oriented, no two of its triangles cross (CGAL's exact test), the bricks' measures are those
-  // of a pass over the whole mesh, and one thread makes the same mesh as all. Among these sets,
-  // h^-2 + c (cut-off) at 31 voxels is a speck of volume 4.3e-11 about two units from the grid's
-  // origin, which the bricks measured 1.5e-9 off when they summed their volumes relative to that
-  // origin.
+  // oriented, no cell is left with crossing triangles and no two triangles cross (CGAL's exact
+  // test, on a third of the sets), the bricks' measures are those of a pass over the whole mesh,
+  // and one thread makes the same mesh as all. Among these sets, h^-2 + c (cut-off) at 31 voxels
+  // is a speck of volume 4.3e-11 about two units from the grid's origin, which the bricks
+  // measured 1.5e-9 off when they summed their volumes relative to that origin.
   std::mt19937_64 rng(6);
   int meshed = 0;
   for (int i = 0; i < 60; ++i) {
@@ -509,7 +509,11 @@ TEST(Extract, RandomSetsGiveClosedEmbeddedSurfacesThatTheirBricksMeasure) {
     const MeshMeasure whole = measure(mesh);
     expect_watertight(whole);
     EXPECT_EQ(es.unembedded_cells, 0u);
-    EXPECT_TRUE(detail::self_intersecting_face_pairs(mesh).empty());
+    // CGAL's test on one set in three: it takes most of the time, a minute under the sanitizers
+    // on all sixty.
+    if (i % 3 == 0) {
+      EXPECT_TRUE(detail::self_intersecting_face_pairs(mesh).empty());
+    }
     ASSERT_TRUE(es.measure_valid);
     expect_same_measure(es.measure, whole);
     // The same mesh on one thread.
