@@ -58,27 +58,22 @@ wall() {
   awk -v a="$start" -v b="$end" 'BEGIN { printf "%.3f\n", b - a }'
 }
 
-median() { sort -g | awk '{ v[NR] = $1 } END { print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }'; }
+# The median of the numbers on standard input, one a line.
+median() {
+  sort -g | awk '{ v[NR] = $1 } END { print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2 }'
+}
 
-# Prints the medians of two columns of times (A then B), A/B or B/A as asked, and the median
-# of the pairs' ratios.
+# Prints the medians of the two columns of times (labelled $1 and $2), the ratio of column $3's
+# median to the other's, and the median of the pairs' ratios taken the same way.
 summary() {
-  local a_label=$1 b_label=$2 slower=$3
-  local ma mb
-  ma=$(cut -f1 "$work/times" | median)
-  mb=$(cut -f2 "$work/times" | median)
-  local pairs
-  if [[ $slower == a ]]; then
-    pairs=$(awk '{ printf "%.4f\n", $1 / $2 }' "$work/times" | median)
-    printf 'median: %s %.3f s, %s %.3f s: %.2fx by the medians, %.2fx by the median of the pairs\n' \
-      "$a_label" "$ma" "$b_label" "$mb" "$(awk -v a="$ma" -v b="$mb" 'BEGIN { print a / b }')" \
-      "$pairs"
-  else
-    pairs=$(awk '{ printf "%.4f\n", $2 / $1 }' "$work/times" | median)
-    printf 'median: %s %.3f s, %s %.3f s: %.2fx by the medians, %.2fx by the median of the pairs\n' \
-      "$a_label" "$ma" "$b_label" "$mb" "$(awk -v a="$ma" -v b="$mb" 'BEGIN { print b / a }')" \
-      "$pairs"
-  fi
+  local labels=("$1" "$2") num=$3 den=$((3 - $3))
+  local m1 m2 ratio pairs
+  m1=$(cut -f1 "$work/times" | median)
+  m2=$(cut -f2 "$work/times" | median)
+  ratio=$(awk -v n="$num" -v a="$m1" -v b="$m2" 'BEGIN { print n == 1 ? a / b : b / a }')
+  pairs=$(awk -v n="$num" -v d="$den" '{ printf "%.4f\n", $n / $d }' "$work/times" | median)
+  printf 'median: %s %.3f s, %s %.3f s: %.2fx by the medians, %.2fx by the median of the pairs\n' \
+    "${labels[0]}" "$m1" "${labels[1]}" "$m2" "$ratio" "$pairs"
 }
 
 case "${1:-}" in
@@ -102,7 +97,7 @@ case "${1:-}" in
       printf '%s\t%s\n' "$q" "$p" >>"$work/times"
       echo "round $i: qjulia $q s, Mandelbulber2 $p s"
     done
-    summary qjulia Mandelbulber2 b
+    summary qjulia Mandelbulber2 2
     ;;
   threads)
     n=$(count "${2:-}" 512)
@@ -118,7 +113,7 @@ case "${1:-}" in
       printf '%s\t%s\n' "$one" "$two" >>"$work/times"
       echo "pair $i: one thread $one s, two $two s"
     done
-    summary "one thread" "two threads" a
+    summary "one thread" "two threads" 1
     ;;
   *) usage ;;
 esac
