@@ -4,9 +4,18 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <array>
 #include <cmath>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <numeric>
+#include <random>
+#include <utility>
+#include <vector>
 
 #include "qjulia/base/error.h"
+#include "qjulia/base/mesh.h"
 #include "qjulia/base/progress.h"
 #include "qjulia/mesh/print.h"
 #include "test_meshes.h"
@@ -76,6 +85,140 @@ TEST(Clean, DustRemovalRemovesOnlyComponentsBelowTheThreshold) {
   // The volume left is the big sphere plus the balls (inscribed polyhedra: a bit less).
   const double expected = 4.0 / 3.0 * kPi + 3 * ball;
   EXPECT_NEAR(fixtures::volume(out), expected, 0.02 * expected);
+}
+
+TEST(Measure, CountsTheEdgesOfBrokenMeshesAsAPlainListOfHalfEdgesDoes) {
+  // Spheres broken at random: holes, flipped and repeated faces, fins, random and repeated
+  // corners; against the half-edges grouped in a map, and components joined by a plain
+  // union-find.
+  std::mt19937 rng(7);
+  for (int it = 0; it < 120; ++it) {
+    TriMesh m =
+        it % 2 ? fixtures::icosphere(1 + it % 3) : fixtures::uv_sphere(4 + it % 5, 5 + it % 7);
+    if (it % 3 == 0) fixtures::append(m, fixtures::icosphere(1, 0.1, {3, 0, 0}));
+    const int defects = it < 6 ? 0 : 1 + static_cast<int>(rng() % 12);
+    for (int d = 0; d < defects; ++d) {
+      const std::size_t f = rng() % m.triangles.size();
+      const auto v = static_cast<std::uint32_t>(rng() % m.positions.size());
+      switch (rng() % 6) {
+        case 0:
+          if (m.triangles.size() > 4) m.triangles.erase(m.triangles.begin() + f);
+          break;
+        case 1:
+          std::swap(m.triangles[f][0], m.triangles[f][1]);
+          break;
+        case 2:
+          m.triangles.push_back(m.triangles[f]);
+          break;
+        case 3:
+          m.triangles[f][rng() % 3] = v;
+          break;
+        case 4:
+          m.triangles.push_back({m.triangles[f][0], m.triangles[f][1], v});
+          break;
+        default:
+          m.triangles[f][1] = m.triangles[f][0];
+      }
+    }
+    m.positions.push_back({9, 9, 9});  // referenced by no face
+    std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<std::pair<std::size_t, bool>>>
+        half;  // undirected edge: its faces and whether each goes from the lower end
+    for (std::size_t f = 0; f < m.triangles.size(); ++f)
+      for (int k = 0; k < 3; ++k) {
+        const std::uint32_t a = m.triangles[f][k], b = m.triangles[f][(k + 1) % 3];
+        half[{std::min(a, b), std::max(a, b)}].push_back({f, a < b});
+      }
+    std::size_t boundary = 0, nonmanifold = 0, misoriented = 0;
+    std::vector<char> open(m.triangles.size(), 0);
+    for (const auto& [e, h] : half) {
+      boundary += h.size() == 1;
+      nonmanifold += h.size() > 2;
+      misoriented += h.size() == 2 && h[0].second == h[1].second;
+      if (h.size() != 2)
+        for (const auto& fh : h) open[fh.first] = 1;
+    }
+    std::vector<std::uint32_t> root(m.positions.size());
+    std::iota(root.begin(), root.end(), 0u);
+    std::function<std::uint32_t(std::uint32_t)> find = [&](std::uint32_t x) {
+      return root[x] == x ? x : root[x] = find(root[x]);
+    };
+    for (const auto& t : m.triangles) {
+      root[find(t[0])] = find(t[1]);
+      root[find(t[1])] = find(t[2]);
+    }
+    std::map<std::uint32_t, bool> closed;  // by root
+    for (std::size_t f = 0; f < m.triangles.size(); ++f) {
+      const std::uint32_t r = find(m.triangles[f][0]);
+      if (!closed.count(r)) closed[r] = true;
+      if (open[f]) closed[r] = false;
+    }
+    const qjulia::MeshMeasure mm = qjulia::measure(m);
+    SCOPED_TRACE(it);
+    EXPECT_EQ(mm.edges, half.size());
+    EXPECT_EQ(mm.boundary_edges, boundary);
+    EXPECT_EQ(mm.nonmanifold_edges, nonmanifold);
+    EXPECT_EQ(mm.misoriented_edges, misoriented);
+    ASSERT_EQ(mm.components.size(), closed.size());
+    std::size_t closed_count = 0, closed_expected = 0;
+    long long euler = 0;
+    for (const auto& c : mm.components) {
+      closed_count += c.closed;
+      euler += c.euler;
+    }
+    for (const auto& [r, c] : closed) closed_expected += c;
+    EXPECT_EQ(closed_count, closed_expected);
+    EXPECT_EQ(euler, mm.euler);
+    EXPECT_EQ(mm.euler, static_cast<long long>(mm.vertices) - static_cast<long long>(half.size()) +
+                            static_cast<long long>(m.triangles.size()));
+  }
+}
+
+TEST(Measure, ASpeckFarFromTheFirstVertexKeepsItsVolumeToFullPrecision) {
+  // A speck of radius 1e-3 about 56 units from the mesh's first vertex (on a unit sphere): taken
+  // relative to that vertex, each face's volume term is about 1e5 times the speck's volume.
+  TriMesh m = fixtures::icosphere(3);
+  const TriMesh speck = fixtures::icosphere(2, 1e-3, {40, -30, 25});
+  fixtures::append(m, speck);
+  // The speck's volume from its own (float) positions, in long double about its first vertex.
+  const auto& p0 = speck.positions[speck.triangles[0][0]];
+  auto at = [&](std::uint32_t v) {
+    std::array<long double, 3> r;
+    for (int k = 0; k < 3; ++k) r[k] = (long double)speck.positions[v][k] - p0[k];
+    return r;
+  };
+  long double exact = 0;
+  for (const auto& t : speck.triangles) {
+    const auto a = at(t[0]), b = at(t[1]), c = at(t[2]);
+    exact += a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0]) +
+             a[2] * (b[0] * c[1] - b[1] * c[0]);
+  }
+  exact /= 6;
+  ASSERT_GT(exact, 3e-9L);  // an inscribed polyhedron of the ball's 4.19e-9
+  const qjulia::MeshMeasure mm = qjulia::measure(m);
+  ASSERT_EQ(mm.components.size(), 2u);
+  ASSERT_EQ(mm.components[1].faces, speck.triangles.size());
+  EXPECT_NEAR(mm.components[1].volume, double(exact), 1e-12 * double(exact));
+  EXPECT_NEAR(mm.volume, mm.components[0].volume + mm.components[1].volume, 1e-15);
+  // An open component keeps its volume relative to the mesh's first vertex: one face of the
+  // speck alone.
+  TriMesh open = fixtures::icosphere(3);
+  TriMesh face;
+  face.positions = speck.positions;
+  face.triangles = {speck.triangles[0]};
+  fixtures::append(open, face);
+  const qjulia::MeshMeasure om = qjulia::measure(open);
+  ASSERT_EQ(om.components.size(), 2u);
+  const auto& o = open.positions[open.triangles[0][0]];
+  const auto& t = speck.triangles[0];
+  std::array<std::array<long double, 3>, 3> c;
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k) c[i][k] = (long double)speck.positions[t[i]][k] - o[k];
+  const long double det = (c[0][0] * (c[1][1] * c[2][2] - c[1][2] * c[2][1]) -
+                           c[0][1] * (c[1][0] * c[2][2] - c[1][2] * c[2][0]) +
+                           c[0][2] * (c[1][0] * c[2][1] - c[1][1] * c[2][0])) /
+                          6;
+  EXPECT_FALSE(om.components[1].closed);
+  EXPECT_NEAR(om.components[1].volume, double(det), 1e-9 * std::abs(double(det)));
 }
 
 TEST(Clean, DefaultThresholdIsTwoCubicVoxels) {

@@ -1,7 +1,7 @@
 #include "qjulia/base/mesh.h"
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <cmath>
@@ -46,79 +46,106 @@ void measure_bbox(const TriMesh& mesh, const std::vector<char>& used, MeshMeasur
       }
 }
 
-/// Area and signed volume of every face, relative to the first vertex for precision; counts the
-/// degenerate faces (a repeated index or zero area).
-struct FaceGeometry {
-  std::vector<double> area, volume;
-};
-FaceGeometry face_geometry(const TriMesh& mesh, MeshMeasure& m, const CancelToken* cancel) {
+/// The area of every face; counts the degenerate faces (a repeated index or zero area).
+std::vector<double> face_areas(const TriMesh& mesh, MeshMeasure& m, const CancelToken* cancel) {
   const std::size_t nf = mesh.triangles.size();
-  const Vec3d o = detail::to_vec3d(mesh.positions[mesh.triangles[0][0]]);
-  FaceGeometry g;
-  g.area.resize(nf);
-  g.volume.resize(nf);
-  for (std::size_t f = 0; f < nf; ++f) {
-    check_cancel(f, cancel);
-    const auto& t = mesh.triangles[f];
-    const Vec3d a = detail::to_vec3d(mesh.positions[t[0]]) - o,
-                b = detail::to_vec3d(mesh.positions[t[1]]) - o,
-                c = detail::to_vec3d(mesh.positions[t[2]]) - o;
-    g.area[f] = detail::triangle_area(a, b, c);
-    g.volume[f] = detail::tetra_volume(a, b, c);
-    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || g.area[f] == 0) ++m.degenerate_faces;
-  }
-  return g;
+  std::vector<double> area(nf);
+  tbb::enumerable_thread_specific<std::size_t> degenerate(0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, kCancelStride / 16),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      throw_if_cancelled(cancel);
+                      std::size_t& d = degenerate.local();
+                      for (std::size_t f = r.begin(); f != r.end(); ++f) {
+                        const auto& t = mesh.triangles[f];
+                        area[f] = detail::triangle_area(detail::to_vec3d(mesh.positions[t[0]]),
+                                                        detail::to_vec3d(mesh.positions[t[1]]),
+                                                        detail::to_vec3d(mesh.positions[t[2]]));
+                        if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || area[f] == 0) ++d;
+                      }
+                    });
+  for (std::size_t d : degenerate) m.degenerate_faces += d;
+  return area;
 }
 
-struct HalfEdge {
-  std::uint32_t lo, hi;  // undirected key
-  std::uint32_t face;
-  bool forward;  // lo -> hi in the face
-  bool operator<(const HalfEdge& o) const {
-    return lo != o.lo ? lo < o.lo : hi != o.hi ? hi < o.hi : face < o.face;
-  }
-};
-
-/// Counts the edges (boundary, non-manifold, misoriented); marks the faces on an edge that does
-/// not have exactly two faces and returns one face of every edge (for per-component counts).
+/// Counts the edges (boundary, non-manifold, misoriented) and, per vertex, the edges whose lower
+/// end it is (for per-component counts); marks the faces on an edge that does not have exactly
+/// two faces. Each vertex gathers the half-edges of its faces whose lower end it is (`vf`: each
+/// vertex's faces, in face order) and groups them by their other end, vertices in parallel: no
+/// sort of all 3F half-edges, which took most of measure()'s time.
 struct EdgeScan {
   std::vector<char> face_open;
-  std::vector<std::uint32_t> edge_face;
+  std::vector<std::uint32_t> edges_at;
 };
-EdgeScan scan_edges(const TriMesh& mesh, MeshMeasure& m, const CancelToken* cancel) {
-  const std::size_t nf = mesh.triangles.size();
-  std::vector<HalfEdge> half(3 * nf);
-  for (std::size_t f = 0; f < nf; ++f)
-    for (int k = 0; k < 3; ++k) {
-      const std::uint32_t a = mesh.triangles[f][k], b = mesh.triangles[f][(k + 1) % 3];
-      half[3 * f + k] = {std::min(a, b), std::max(a, b), static_cast<std::uint32_t>(f), a < b};
-    }
-  throw_if_cancelled(cancel);
-  tbb::parallel_sort(half.begin(), half.end());
-  throw_if_cancelled(cancel);
+EdgeScan scan_edges(const TriMesh& mesh, const detail::VertexFaces& vf, MeshMeasure& m,
+                    const CancelToken* cancel) {
+  const std::size_t nv = mesh.positions.size(), nf = mesh.triangles.size();
+  struct Half {
+    std::uint32_t hi, face;
+    bool forward;  // lo -> hi in the face
+  };
+  struct Counts {
+    std::size_t edges = 0, boundary = 0, nonmanifold = 0, misoriented = 0;
+    std::vector<std::uint32_t> open;  // faces on an edge without exactly two
+  };
   EdgeScan scan;
+  scan.edges_at.assign(nv, 0);
+  tbb::enumerable_thread_specific<Counts> counts;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, kCancelStride / 16),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      throw_if_cancelled(cancel);
+                      Counts& c = counts.local();
+                      std::vector<Half> half;
+                      for (std::size_t v = r.begin(); v != r.end(); ++v) {
+                        half.clear();
+                        std::uint32_t last = UINT32_MAX;  // a face with v twice is listed twice
+                        for (std::uint32_t k = vf.offsets[v]; k < vf.offsets[v + 1]; ++k) {
+                          const std::uint32_t f = vf.faces[k];
+                          if (f == last) continue;
+                          last = f;
+                          const auto& t = mesh.triangles[f];
+                          for (int e = 0; e < 3; ++e) {
+                            const std::uint32_t a = t[e], b = t[(e + 1) % 3];
+                            if (std::min(a, b) == v) half.push_back({std::max(a, b), f, a < b});
+                          }
+                        }
+                        std::sort(half.begin(), half.end(), [](const Half& x, const Half& y) {
+                          return x.hi != y.hi ? x.hi < y.hi : x.face < y.face;
+                        });
+                        for (std::size_t i = 0; i < half.size();) {
+                          std::size_t j = i;
+                          while (j < half.size() && half[j].hi == half[i].hi) ++j;
+                          const std::size_t count = j - i;
+                          ++c.edges;
+                          ++scan.edges_at[v];
+                          if (count == 1) ++c.boundary;
+                          if (count > 2) ++c.nonmanifold;
+                          if (count == 2 && half[i].forward == half[i + 1].forward) ++c.misoriented;
+                          if (count != 2)
+                            for (std::size_t k = i; k < j; ++k) c.open.push_back(half[k].face);
+                          i = j;
+                        }
+                      }
+                    });
   scan.face_open.assign(nf, 0);
-  for (std::size_t i = 0; i < half.size();) {
-    check_cancel(m.edges, cancel);
-    std::size_t j = i;
-    while (j < half.size() && half[j].lo == half[i].lo && half[j].hi == half[i].hi) ++j;
-    const std::size_t count = j - i;
-    ++m.edges;
-    scan.edge_face.push_back(half[i].face);
-    if (count == 1) ++m.boundary_edges;
-    if (count > 2) ++m.nonmanifold_edges;
-    if (count == 2 && half[i].forward == half[i + 1].forward) ++m.misoriented_edges;
-    if (count != 2)
-      for (std::size_t k = i; k < j; ++k) scan.face_open[half[k].face] = 1;
-    i = j;
+  for (const Counts& c : counts) {
+    m.edges += c.edges;
+    m.boundary_edges += c.boundary;
+    m.nonmanifold_edges += c.nonmanifold;
+    m.misoriented_edges += c.misoriented;
+    for (std::uint32_t f : c.open) scan.face_open[f] = 1;
   }
   return scan;
 }
 
 /// Vertex-connected components (faces sharing a vertex belong together), sorted by decreasing
 /// face count.
+/// A component's signed volume is taken relative to its own first vertex (a small component far
+/// from the mesh's first vertex would otherwise sum terms of the size of that distance squared,
+/// which cancel), then moved to the mesh's first vertex exactly: det(a + t, b + t, c + t) =
+/// det(a, b, c) + t . (b - a) x (c - a), so an open component keeps the volume it has relative
+/// to that point.
 std::vector<ComponentMeasure> components(const TriMesh& mesh, const std::vector<char>& used,
-                                         const FaceGeometry& geometry, const EdgeScan& edges,
+                                         const std::vector<double>& area, const EdgeScan& edges,
                                          const CancelToken* cancel) {
   const std::size_t nv = mesh.positions.size(), nf = mesh.triangles.size();
   detail::UnionFind vuf(nv);
@@ -130,6 +157,7 @@ std::vector<ComponentMeasure> components(const TriMesh& mesh, const std::vector<
   std::vector<std::int64_t> id(nv, -1);
   std::vector<ComponentMeasure> comps;
   std::vector<std::int64_t> comp_vertices, comp_edges;
+  std::vector<Vec3d> base, normal_sum;  // per component: its first vertex, its faces' normals
   for (std::size_t v = 0; v < nv; ++v) {
     if (!used[v]) continue;
     const auto r = vuf.find(static_cast<std::uint32_t>(v));
@@ -139,17 +167,32 @@ std::vector<ComponentMeasure> components(const TriMesh& mesh, const std::vector<
       comps.back().closed = true;
       comp_vertices.push_back(0);
       comp_edges.push_back(0);
+      base.push_back(detail::to_vec3d(mesh.positions[v]));
+      normal_sum.push_back({0, 0, 0});
     }
     ++comp_vertices[id[r]];
   }
   for (std::size_t f = 0; f < nf; ++f) {
-    auto& c = comps[id[vuf.find(mesh.triangles[f][0])]];
+    check_cancel(f, cancel);
+    const auto& t = mesh.triangles[f];
+    const auto i = static_cast<std::size_t>(id[vuf.find(t[0])]);
+    auto& c = comps[i];
     ++c.faces;
-    c.volume += geometry.volume[f];
-    c.area += geometry.area[f];
+    const Vec3d a = detail::to_vec3d(mesh.positions[t[0]]) - base[i],
+                b = detail::to_vec3d(mesh.positions[t[1]]) - base[i],
+                d = detail::to_vec3d(mesh.positions[t[2]]) - base[i];
+    c.volume += detail::tetra_volume(a, b, d);
+    normal_sum[i] = normal_sum[i] + detail::cross(b - a, d - a);
+    c.area += area[f];
     if (edges.face_open[f]) c.closed = false;
   }
-  for (auto f : edges.edge_face) ++comp_edges[id[vuf.find(mesh.triangles[f][0])]];
+  const Vec3d origin = detail::to_vec3d(mesh.positions[mesh.triangles[0][0]]);
+  for (std::size_t i = 0; i < comps.size(); ++i)
+    comps[i].volume += detail::dot(base[i] - origin, normal_sum[i]) / 6.0;
+  // An edge is in the component of its ends.
+  for (std::size_t v = 0; v < nv; ++v)
+    if (edges.edges_at[v] != 0)
+      comp_edges[id[vuf.find(static_cast<std::uint32_t>(v))]] += edges.edges_at[v];
   for (std::size_t c = 0; c < comps.size(); ++c) {
     comps[c].euler = comp_vertices[c] - comp_edges[c] + static_cast<std::int64_t>(comps[c].faces);
     comps[c].genus = comps[c].closed ? (2 - comps[c].euler) / 2 : -1;
@@ -170,15 +213,18 @@ MeshMeasure measure(const TriMesh& mesh, const CancelToken* cancel) {
   const std::vector<char> used = referenced_vertices(mesh);
   m.vertices = static_cast<std::size_t>(std::count(used.begin(), used.end(), 1));
   measure_bbox(mesh, used, m);
-  const FaceGeometry geometry = face_geometry(mesh, m, cancel);
-  const EdgeScan edges = scan_edges(mesh, m, cancel);
+  const std::vector<double> area = face_areas(mesh, m, cancel);
+  EdgeScan edges;
   {
-    const auto pinched = detail::pinched_vertices(mesh, detail::VertexFaces(mesh));
+    const detail::VertexFaces vf(mesh);
+    throw_if_cancelled(cancel);
+    edges = scan_edges(mesh, vf, m, cancel);
+    const auto pinched = detail::pinched_vertices(mesh, vf);
     m.nonmanifold_vertices = static_cast<std::size_t>(
         std::count(pinched.begin(), pinched.end(), static_cast<std::uint8_t>(1)));
   }
   throw_if_cancelled(cancel);
-  m.components = components(mesh, used, geometry, edges, cancel);
+  m.components = components(mesh, used, area, edges, cancel);
   for (const auto& c : m.components) {
     m.volume += c.volume;
     m.area += c.area;
