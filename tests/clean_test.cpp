@@ -11,9 +11,11 @@
 #include <map>
 #include <numeric>
 #include <random>
+#include <set>
 #include <utility>
 #include <vector>
 
+#include "base/mesh_check.h"
 #include "qjulia/base/error.h"
 #include "qjulia/base/mesh.h"
 #include "qjulia/base/progress.h"
@@ -170,6 +172,37 @@ TEST(Measure, CountsTheEdgesOfBrokenMeshesAsAPlainListOfHalfEdgesDoes) {
     EXPECT_EQ(euler, mm.euler);
     EXPECT_EQ(mm.euler, static_cast<long long>(mm.vertices) - static_cast<long long>(half.size()) +
                             static_cast<long long>(m.triangles.size()));
+    // check_topology() leaves out the faces with a repeated index.
+    std::map<std::pair<std::uint32_t, std::uint32_t>, std::vector<bool>> proper;
+    std::size_t degenerate = 0;
+    for (const auto& t : m.triangles) {
+      if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
+        ++degenerate;
+        continue;
+      }
+      for (int k = 0; k < 3; ++k) {
+        const std::uint32_t a = t[k], b = t[(k + 1) % 3];
+        proper[{std::min(a, b), std::max(a, b)}].push_back(a < b);
+      }
+    }
+    std::size_t p_boundary = 0, p_nonmanifold = 0, p_misoriented = 0;
+    std::set<std::uint32_t> rim;
+    for (const auto& [e, h] : proper) {
+      if (h.size() == 1) {
+        ++p_boundary;
+        rim.insert(e.first);
+        rim.insert(e.second);
+      }
+      p_nonmanifold += h.size() > 2;
+      p_misoriented += h.size() == 2 && h[0] == h[1];
+    }
+    const qjulia::detail::TopologyCheck tc = qjulia::detail::check_topology(m, true);
+    EXPECT_EQ(tc.degenerate_faces, degenerate);
+    EXPECT_EQ(tc.edges, proper.size());
+    EXPECT_EQ(tc.boundary_edges, p_boundary);
+    EXPECT_EQ(tc.nonmanifold_edges, p_nonmanifold);
+    EXPECT_EQ(tc.misoriented_edges, p_misoriented);
+    EXPECT_EQ(tc.boundary_vertices, std::vector<std::uint32_t>(rim.begin(), rim.end()));
   }
 }
 

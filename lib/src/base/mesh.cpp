@@ -67,76 +67,6 @@ std::vector<double> face_areas(const TriMesh& mesh, MeshMeasure& m, const Cancel
   return area;
 }
 
-/// Counts the edges (boundary, non-manifold, misoriented) and, per vertex, the edges whose lower
-/// end it is (for per-component counts); marks the faces on an edge that does not have exactly
-/// two faces. Each vertex gathers the half-edges of its faces whose lower end it is (`vf`: each
-/// vertex's faces, in face order) and groups them by their other end, vertices in parallel: no
-/// sort of all 3F half-edges, which took most of measure()'s time.
-struct EdgeScan {
-  std::vector<char> face_open;
-  std::vector<std::uint32_t> edges_at;
-};
-EdgeScan scan_edges(const TriMesh& mesh, const detail::VertexFaces& vf, MeshMeasure& m,
-                    const CancelToken* cancel) {
-  const std::size_t nv = mesh.positions.size(), nf = mesh.triangles.size();
-  struct Half {
-    std::uint32_t hi, face;
-    bool forward;  // lo -> hi in the face
-  };
-  struct Counts {
-    std::size_t edges = 0, boundary = 0, nonmanifold = 0, misoriented = 0;
-    std::vector<std::uint32_t> open;  // faces on an edge without exactly two
-  };
-  EdgeScan scan;
-  scan.edges_at.assign(nv, 0);
-  tbb::enumerable_thread_specific<Counts> counts;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, kCancelStride / 16),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      throw_if_cancelled(cancel);
-                      Counts& c = counts.local();
-                      std::vector<Half> half;
-                      for (std::size_t v = r.begin(); v != r.end(); ++v) {
-                        half.clear();
-                        std::uint32_t last = UINT32_MAX;  // a face with v twice is listed twice
-                        for (std::uint32_t k = vf.offsets[v]; k < vf.offsets[v + 1]; ++k) {
-                          const std::uint32_t f = vf.faces[k];
-                          if (f == last) continue;
-                          last = f;
-                          const auto& t = mesh.triangles[f];
-                          for (int e = 0; e < 3; ++e) {
-                            const std::uint32_t a = t[e], b = t[(e + 1) % 3];
-                            if (std::min(a, b) == v) half.push_back({std::max(a, b), f, a < b});
-                          }
-                        }
-                        std::sort(half.begin(), half.end(), [](const Half& x, const Half& y) {
-                          return x.hi != y.hi ? x.hi < y.hi : x.face < y.face;
-                        });
-                        for (std::size_t i = 0; i < half.size();) {
-                          std::size_t j = i;
-                          while (j < half.size() && half[j].hi == half[i].hi) ++j;
-                          const std::size_t count = j - i;
-                          ++c.edges;
-                          ++scan.edges_at[v];
-                          if (count == 1) ++c.boundary;
-                          if (count > 2) ++c.nonmanifold;
-                          if (count == 2 && half[i].forward == half[i + 1].forward) ++c.misoriented;
-                          if (count != 2)
-                            for (std::size_t k = i; k < j; ++k) c.open.push_back(half[k].face);
-                          i = j;
-                        }
-                      }
-                    });
-  scan.face_open.assign(nf, 0);
-  for (const Counts& c : counts) {
-    m.edges += c.edges;
-    m.boundary_edges += c.boundary;
-    m.nonmanifold_edges += c.nonmanifold;
-    m.misoriented_edges += c.misoriented;
-    for (std::uint32_t f : c.open) scan.face_open[f] = 1;
-  }
-  return scan;
-}
-
 /// Vertex-connected components (faces sharing a vertex belong together), sorted by decreasing
 /// face count.
 /// A component's signed volume is taken relative to its own first vertex (a small component far
@@ -145,8 +75,8 @@ EdgeScan scan_edges(const TriMesh& mesh, const detail::VertexFaces& vf, MeshMeas
 /// det(a, b, c) + t . (b - a) x (c - a), so an open component keeps the volume it has relative
 /// to that point.
 std::vector<ComponentMeasure> components(const TriMesh& mesh, const std::vector<char>& used,
-                                         const std::vector<double>& area, const EdgeScan& edges,
-                                         const CancelToken* cancel) {
+                                         const std::vector<double>& area,
+                                         const detail::EdgeScan& edges, const CancelToken* cancel) {
   const std::size_t nv = mesh.positions.size(), nf = mesh.triangles.size();
   detail::UnionFind vuf(nv);
   for (const auto& t : mesh.triangles) {
@@ -184,8 +114,8 @@ std::vector<ComponentMeasure> components(const TriMesh& mesh, const std::vector<
     c.volume += detail::tetra_volume(a, b, d);
     normal_sum[i] = normal_sum[i] + detail::cross(b - a, d - a);
     c.area += area[f];
-    if (edges.face_open[f]) c.closed = false;
   }
+  for (std::uint32_t f : edges.open_faces) comps[id[vuf.find(mesh.triangles[f][0])]].closed = false;
   const Vec3d origin = detail::to_vec3d(mesh.positions[mesh.triangles[0][0]]);
   for (std::size_t i = 0; i < comps.size(); ++i)
     comps[i].volume += detail::dot(base[i] - origin, normal_sum[i]) / 6.0;
@@ -214,11 +144,15 @@ MeshMeasure measure(const TriMesh& mesh, const CancelToken* cancel) {
   m.vertices = static_cast<std::size_t>(std::count(used.begin(), used.end(), 1));
   measure_bbox(mesh, used, m);
   const std::vector<double> area = face_areas(mesh, m, cancel);
-  EdgeScan edges;
+  detail::EdgeScan edges;
   {
     const detail::VertexFaces vf(mesh);
     throw_if_cancelled(cancel);
-    edges = scan_edges(mesh, vf, m, cancel);
+    edges = detail::scan_edges(mesh, vf, /*skip_degenerate=*/false, cancel);
+    m.edges = edges.edges;
+    m.boundary_edges = edges.boundary_edges;
+    m.nonmanifold_edges = edges.nonmanifold_edges;
+    m.misoriented_edges = edges.misoriented_edges;
     const auto pinched = detail::pinched_vertices(mesh, vf);
     m.nonmanifold_vertices = static_cast<std::size_t>(
         std::count(pinched.begin(), pinched.end(), static_cast<std::uint8_t>(1)));

@@ -1,6 +1,7 @@
 #include "base/mesh_check.h"
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
@@ -80,56 +81,92 @@ std::vector<uint8_t> pinched_vertices(const TriMesh& mesh, const VertexFaces& vf
   return pinched;
 }
 
+EdgeScan scan_edges(const TriMesh& mesh, const VertexFaces& vf, bool skip_degenerate,
+                    const CancelToken* cancel) {
+  const std::size_t nv = mesh.positions.size();
+  struct Half {
+    uint32_t hi, face;
+    bool forward;  // lo -> hi in the face
+  };
+  EdgeScan scan;
+  scan.edges_at.assign(nv, 0);
+  tbb::enumerable_thread_specific<EdgeScan> parts;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nv, 4096), [&](const auto& r) {
+    throw_if_cancelled(cancel);
+    EdgeScan& part = parts.local();
+    std::vector<Half> half;
+    for (std::size_t v = r.begin(); v != r.end(); ++v) {
+      // The half-edges of v's faces whose lower end is v (a face with v twice is listed twice).
+      half.clear();
+      uint32_t last = UINT32_MAX;
+      for (uint32_t k = vf.offsets[v]; k < vf.offsets[v + 1]; ++k) {
+        const uint32_t f = vf.faces[k];
+        if (f == last) continue;
+        last = f;
+        const auto& t = mesh.triangles[f];
+        if (skip_degenerate && (t[0] == t[1] || t[1] == t[2] || t[0] == t[2])) continue;
+        for (int e = 0; e < 3; ++e) {
+          const uint32_t a = t[e], b = t[(e + 1) % 3];
+          if (std::min(a, b) == v) half.push_back({std::max(a, b), f, a < b});
+        }
+      }
+      std::sort(half.begin(), half.end(), [](const Half& x, const Half& y) {
+        return x.hi != y.hi ? x.hi < y.hi : x.face < y.face;
+      });
+      for (std::size_t i = 0; i < half.size();) {
+        std::size_t j = i + 1;
+        while (j < half.size() && half[j].hi == half[i].hi) ++j;
+        const std::size_t n = j - i;
+        const std::array<uint32_t, 2> ends{static_cast<uint32_t>(v), half[i].hi};
+        ++part.edges;
+        ++scan.edges_at[v];
+        if (n == 1) {
+          ++part.boundary_edges;
+          part.boundary.push_back(ends);
+        } else if (n > 2) {
+          ++part.nonmanifold_edges;
+          part.bad.push_back(ends);
+        } else if (half[i].forward == half[i + 1].forward) {
+          ++part.misoriented_edges;
+          part.bad.push_back(ends);
+        }
+        if (n != 2)
+          for (std::size_t k = i; k < j; ++k) part.open_faces.push_back(half[k].face);
+        i = j;
+      }
+    }
+  });
+  for (EdgeScan& part : parts) {
+    scan.edges += part.edges;
+    scan.boundary_edges += part.boundary_edges;
+    scan.nonmanifold_edges += part.nonmanifold_edges;
+    scan.misoriented_edges += part.misoriented_edges;
+    scan.open_faces.insert(scan.open_faces.end(), part.open_faces.begin(), part.open_faces.end());
+    scan.boundary.insert(scan.boundary.end(), part.boundary.begin(), part.boundary.end());
+    scan.bad.insert(scan.bad.end(), part.bad.begin(), part.bad.end());
+  }
+  return scan;
+}
+
 TopologyCheck check_topology(const TriMesh& mesh, bool allow_boundary) {
   TopologyCheck out;
-  const auto& tris = mesh.triangles;
-  // Half-edges packed as (min << 33) | (max << 1) | (a < b), sorted so that the two halves of
-  // one edge are adjacent.
-  std::vector<uint64_t> keys;
-  keys.reserve(tris.size() * 3);
-  for (const auto& t : tris) {
-    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
-      ++out.degenerate_faces;
-      continue;
-    }
-    for (int k = 0; k < 3; ++k) {
-      uint64_t a = t[k], b = t[(k + 1) % 3];
-      uint64_t lo = std::min(a, b), hi = std::max(a, b);
-      keys.push_back((lo << 33) | (hi << 1) | (a < b ? 1u : 0u));
-    }
-  }
-  tbb::parallel_sort(keys.begin(), keys.end());
+  for (const auto& t : mesh.triangles)
+    out.degenerate_faces += t[0] == t[1] || t[1] == t[2] || t[0] == t[2];
+  const VertexFaces vf(mesh);
+  const EdgeScan scan = scan_edges(mesh, vf, /*skip_degenerate=*/true);
+  out.edges = scan.edges;
+  out.boundary_edges = scan.boundary_edges;
+  out.nonmanifold_edges = scan.nonmanifold_edges;
+  out.misoriented_edges = scan.misoriented_edges;
   std::vector<uint32_t> bad;
-  for (std::size_t i = 0; i < keys.size();) {
-    std::size_t j = i + 1;
-    while (j < keys.size() && (keys[j] >> 1) == (keys[i] >> 1)) ++j;
-    const std::size_t n = j - i;
-    ++out.edges;
-    bool is_bad = false;
-    if (n == 1) {
-      ++out.boundary_edges;
-      is_bad = !allow_boundary;
-      out.boundary_vertices.push_back(static_cast<uint32_t>(keys[i] >> 33));
-      out.boundary_vertices.push_back(static_cast<uint32_t>((keys[i] >> 1) & 0xffffffffu));
-    } else if (n > 2) {
-      ++out.nonmanifold_edges;
-      is_bad = true;
-    } else if ((keys[i] & 1) == (keys[i + 1] & 1)) {
-      ++out.misoriented_edges;
-      is_bad = true;
-    }
-    if (is_bad) {
-      bad.push_back(static_cast<uint32_t>(keys[i] >> 33));
-      bad.push_back(static_cast<uint32_t>((keys[i] >> 1) & 0xffffffffu));
-    }
-    i = j;
+  for (const auto& e : scan.boundary) {
+    out.boundary_vertices.insert(out.boundary_vertices.end(), e.begin(), e.end());
+    if (!allow_boundary) bad.insert(bad.end(), e.begin(), e.end());
   }
-  keys.clear();
-  keys.shrink_to_fit();
-
+  for (const auto& e : scan.bad) bad.insert(bad.end(), e.begin(), e.end());
   // Vertex fans: the link of a vertex must be connected.
   const std::size_t nv = mesh.positions.size();
-  const std::vector<uint8_t> pinched = pinched_vertices(mesh, VertexFaces(mesh));
+  const std::vector<uint8_t> pinched = pinched_vertices(mesh, vf);
   for (std::size_t v = 0; v < nv; ++v)
     if (pinched[v]) {
       ++out.nonmanifold_vertices;

@@ -2,11 +2,13 @@
 /// @file mesh_check.h
 /// Small, fast topology checks and edits of clean and decimate; the vertex-fan test is shared with
 /// measure().
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
 
 #include "qjulia/base/mesh.h"
+#include "qjulia/base/progress.h"
 
 namespace qjulia::detail {
 
@@ -26,7 +28,8 @@ struct TopologyCheck {
   bool oriented() const { return misoriented_edges == 0; }
 };
 
-/// Checks edges and vertex fans. O(F log F), multi-threaded sort.
+/// Checks edges and vertex fans (faces with a repeated index are counted and skipped). O(F),
+/// multi-threaded.
 /// With allow_boundary, boundary edges are counted but their vertices are not reported bad.
 TopologyCheck check_topology(const TriMesh& mesh, bool allow_boundary = false);
 
@@ -36,6 +39,25 @@ struct VertexFaces {
   std::vector<uint32_t> faces;
   explicit VertexFaces(const TriMesh& mesh);
 };
+
+/// The undirected edges of a mesh, each counted once, found at its lower end from the faces
+/// there (no sort of all half-edges).
+struct EdgeScan {
+  std::size_t edges = 0;
+  std::size_t boundary_edges = 0;     ///< one face
+  std::size_t nonmanifold_edges = 0;  ///< more than two faces
+  std::size_t misoriented_edges = 0;  ///< two faces traversing it the same way
+  std::vector<uint32_t> edges_at;     ///< per vertex: the edges whose lower end it is
+  std::vector<uint32_t> open_faces;   ///< faces on an edge without exactly two (a face per edge)
+  std::vector<std::array<uint32_t, 2>> boundary;  ///< the ends of the boundary edges
+  std::vector<std::array<uint32_t, 2>> bad;       ///< the ends of non-manifold, misoriented edges
+};
+
+/// Scans the edges of the faces (with `skip_degenerate`, faces with a repeated index hold none)
+/// from `vf`, vertices in parallel; the lists come in no particular order. @throws Cancelled
+/// when `cancel` is requested.
+EdgeScan scan_edges(const TriMesh& mesh, const VertexFaces& vf, bool skip_degenerate,
+                    const CancelToken* cancel = nullptr);
 
 /// Per vertex: 1 when its faces (those without a repeated index) form more than one fan, i.e.
 /// its link is not connected; the one vertex-fan test of measure() and check_topology().
