@@ -53,8 +53,9 @@ struct MeshMeasure {
   std::vector<ComponentMeasure> components;  ///< sorted by decreasing face count
 };
 
-/// Measures `mesh`. Runs in O(F log F). Faces with a repeated index count towards the edges but
-/// not towards the vertex fans.
+/// Measures `mesh`. Each vertex sorts only the half-edges of its own faces: linear in V + F when
+/// vertices have a few faces each, O(F log F) at worst; multi-threaded where it can. Faces with a
+/// repeated index count towards the edges but not towards the vertex fans.
 /// @throws InvalidInput when validate_mesh() refuses the mesh; Cancelled when `cancel` is
 ///         requested.
 MeshMeasure measure(const TriMesh& mesh, const CancelToken* cancel = nullptr);
