@@ -25,11 +25,10 @@ void check_cancel(std::size_t i, const CancelToken* cancel) {
   if (i % kCancelStride == 0) throw_if_cancelled(cancel);
 }
 
-/// Per vertex: referenced by a face.
-std::vector<char> referenced_vertices(const TriMesh& mesh) {
-  std::vector<char> used(mesh.positions.size(), 0);
-  for (const auto& t : mesh.triangles)
-    for (auto v : t) used[v] = 1;
+/// Per vertex: referenced by a face (it has a face in `vf`).
+std::vector<char> referenced_vertices(const detail::VertexFaces& vf) {
+  std::vector<char> used(vf.offsets.size() - 1);
+  for (std::size_t v = 0; v < used.size(); ++v) used[v] = vf.offsets[v + 1] > vf.offsets[v];
   return used;
 }
 
@@ -140,14 +139,15 @@ MeshMeasure measure(const TriMesh& mesh, const CancelToken* cancel) {
   MeshMeasure m;
   m.faces = mesh.triangles.size();
   if (m.faces == 0) return m;
-  const std::vector<char> used = referenced_vertices(mesh);
-  m.vertices = static_cast<std::size_t>(std::count(used.begin(), used.end(), 1));
-  measure_bbox(mesh, used, m);
   const std::vector<double> area = face_areas(mesh, m, cancel);
+  std::vector<char> used;
   detail::EdgeScan edges;
   {
     const detail::VertexFaces vf(mesh);
     throw_if_cancelled(cancel);
+    used = referenced_vertices(vf);
+    m.vertices = static_cast<std::size_t>(std::count(used.begin(), used.end(), 1));
+    measure_bbox(mesh, used, m);
     edges = detail::scan_edges(mesh, vf, /*skip_degenerate=*/false, cancel);
     m.edges = edges.edges;
     m.boundary_edges = edges.boundary_edges;

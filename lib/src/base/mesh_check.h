@@ -48,7 +48,7 @@ struct EdgeScan {
   std::size_t nonmanifold_edges = 0;  ///< more than two faces
   std::size_t misoriented_edges = 0;  ///< two faces traversing it the same way
   std::vector<uint32_t> edges_at;     ///< per vertex: the edges whose lower end it is
-  std::vector<uint32_t> open_faces;   ///< faces on an edge without exactly two (a face per edge)
+  std::vector<uint32_t> open_faces;   ///< the faces of each edge without exactly two
   std::vector<std::array<uint32_t, 2>> boundary;  ///< the ends of the boundary edges
   std::vector<std::array<uint32_t, 2>> bad;       ///< the ends of non-manifold, misoriented edges
 };
