@@ -17,6 +17,7 @@
 #include <utility>
 #include <vector>
 
+#include "base/bvh.h"
 #include "io_fixtures.h"
 #include "qjulia/base/error.h"
 #include "qjulia/field/params.h"
@@ -525,4 +526,72 @@ TEST(Compare, JsonHasTheStatsKeysOfEachSurface) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
   EXPECT_EQ(json.find("bbox_min"), std::string::npos);
   EXPECT_EQ(json.find("component_count"), std::string::npos);
+}
+
+namespace {
+
+// The distance from p to the surface of the unit cube [0, 1]^3, from its definition.
+double distance_to_unit_cube(const std::array<float, 3>& p) {
+  double outside = 0, inside = 0.5;
+  for (int k = 0; k < 3; ++k) {
+    const double off = std::abs(double(p[k]) - 0.5) - 0.5;  // > 0 beyond the slab of axis k
+    outside += off > 0 ? off * off : 0;
+    inside = std::min(inside, -off);
+  }
+  return outside > 0 ? std::sqrt(outside) : inside;
+}
+
+}  // namespace
+
+TEST(Compare, StreamedDistancesComeBatchByBatchInOrderWithTheWholeSequencesValues) {
+  // compare() measures its samples in batches of 65,536 made on demand; a count that is not a
+  // multiple of the batch, with points inside, outside and on the cube.
+  const TriMesh cube_mesh = fixtures::box({0, 0, 0}, {1, 1, 1});
+  const qjulia::detail::TriangleBvh tree(cube_mesh.positions, cube_mesh.triangles);
+  const std::size_t n = 2 * 65536 + 4321;
+  auto point = [](std::size_t i) -> std::array<float, 3> {
+    std::uint64_t x = i * 0x9E3779B97F4A7C15ull + 12345;
+    std::array<float, 3> p;
+    for (float& c : p) {
+      x ^= x >> 29;
+      x *= 0xBF58476D1CE4E5B9ull;
+      x ^= x >> 32;
+      c = float(-0.5 + 2.0 * double(x >> 11) / 9007199254740992.0);
+    }
+    return p;
+  };
+  std::vector<std::array<float, 3>> all(n);
+  for (std::size_t i = 0; i < n; ++i) all[i] = point(i);
+  const std::vector<float> whole = tree.distances(all);
+
+  std::vector<float> streamed;
+  std::vector<std::size_t> made(n, 0);
+  std::size_t batches = 0;
+  std::vector<double> steps;
+  tree.distances(
+      n,
+      [&](std::size_t begin, std::size_t end, std::array<float, 3>* out) {
+        for (std::size_t i = begin; i < end; ++i) {
+          out[i - begin] = point(i);
+          ++made[i];  // each index by one block only
+        }
+      },
+      [&](std::size_t begin, const float* d, std::size_t count) {
+        EXPECT_EQ(begin, streamed.size());  // in order, none left out
+        EXPECT_LE(count, std::size_t{65536});
+        streamed.insert(streamed.end(), d, d + count);
+        ++batches;
+      },
+      nullptr, [&](double f) { steps.push_back(f); });
+  ASSERT_EQ(streamed.size(), n);
+  EXPECT_EQ(batches, std::size_t{3});
+  EXPECT_EQ(*std::min_element(made.begin(), made.end()), std::size_t{1});
+  EXPECT_EQ(*std::max_element(made.begin(), made.end()), std::size_t{1});
+  ASSERT_EQ(steps.size(), std::size_t{3});
+  EXPECT_TRUE(std::is_sorted(steps.begin(), steps.end()));
+  EXPECT_EQ(steps.back(), 1.0);
+  for (std::size_t i = 0; i < n; ++i) {
+    ASSERT_EQ(streamed[i], whole[i]) << "point " << i;
+    ASSERT_NEAR(streamed[i], distance_to_unit_cube(all[i]), 2e-6) << "point " << i;
+  }
 }

@@ -403,26 +403,47 @@ ClosestHit TriangleBvh::closest(const std::array<float, 3>& point, uint32_t hint
 std::vector<float> TriangleBvh::distances(const std::vector<std::array<float, 3>>& points,
                                           const CancelToken* cancel,
                                           const std::function<void(double)>& step) const {
-  std::vector<float> d(points.size(), std::numeric_limits<float>::infinity());
-  if (empty()) return d;
+  std::vector<float> d(points.size());
+  distances(
+      points.size(),
+      [&](std::size_t begin, std::size_t end, std::array<float, 3>* out) {
+        std::copy(points.begin() + begin, points.begin() + end, out);
+      },
+      [&](std::size_t begin, const float* batch, std::size_t n) {
+        std::copy(batch, batch + n, d.begin() + begin);
+      },
+      cancel, step);
+  return d;
+}
+
+void TriangleBvh::distances(std::size_t count, const PointSource& source, const DistanceSink& sink,
+                            const CancelToken* cancel,
+                            const std::function<void(double)>& step) const {
   constexpr std::size_t kBatch = 1 << 16, kBlock = 256;
-  for (std::size_t begin = 0; begin < points.size(); begin += kBatch) {
+  std::vector<std::array<float, 3>> points(std::min(count, kBatch));
+  std::vector<float> d(points.size());
+  for (std::size_t begin = 0; begin < count; begin += kBatch) {
     throw_if_cancelled(cancel);
-    const std::size_t end = std::min(points.size(), begin + kBatch);
+    const std::size_t end = std::min(count, begin + kBatch);
     const std::size_t blocks = (end - begin + kBlock - 1) / kBlock;
     tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t block) {
+      const std::size_t first = block * kBlock, last = std::min(end - begin, first + kBlock);
+      source(begin + first, begin + last, points.data() + first);
+      if (empty()) {
+        std::fill(d.begin() + first, d.begin() + last, std::numeric_limits<float>::infinity());
+        return;
+      }
       // Consecutive points are close: the previous hit is a good start.
       uint32_t hint = UINT32_MAX;
-      const std::size_t last = std::min(end, begin + (block + 1) * kBlock);
-      for (std::size_t i = begin + block * kBlock; i < last; ++i) {
+      for (std::size_t i = first; i < last; ++i) {
         const ClosestHit hit = closest(points[i], hint);
         d[i] = std::sqrt(hit.distance_sq);
         hint = hit.slot;
       }
     });
-    if (step) step(static_cast<double>(end) / points.size());
+    sink(begin, d.data(), end - begin);
+    if (step) step(static_cast<double>(end) / count);
   }
-  return d;
 }
 
 }  // namespace qjulia::detail

@@ -50,6 +50,18 @@ class TriangleBvh {
                                const CancelToken* cancel = nullptr,
                                const std::function<void(double)>& step = {}) const;
 
+  /// Makes points [begin, end) of a sequence in `out` (from several threads at once).
+  using PointSource =
+      std::function<void(std::size_t begin, std::size_t end, std::array<float, 3>* out)>;
+  /// Takes the distances of points [begin, begin + n) (on the calling thread, in order).
+  using DistanceSink = std::function<void(std::size_t begin, const float* d, std::size_t n)>;
+  /// The same distances for `count` points that `source` makes batch by batch, handed to `sink`
+  /// batch by batch: the same values as distances() of the whole sequence, in memory of one
+  /// batch rather than of all the points.
+  void distances(std::size_t count, const PointSource& source, const DistanceSink& sink,
+                 const CancelToken* cancel = nullptr,
+                 const std::function<void(double)>& step = {}) const;
+
   // Layout, for the builder in bvh.cpp.
   struct Node {
     float lo[3], hi[3];

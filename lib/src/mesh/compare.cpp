@@ -4,8 +4,6 @@
 // approximate, so each directed maximum is a lower bound within the sample spacing.
 #include "qjulia/mesh/compare.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 
 #include <algorithm>
@@ -44,77 +42,98 @@ bool valid_face(const TriMesh& m, const std::array<uint32_t, 3>& t) {
 
 // The surface samples of `m`: its referenced vertices first (their indices in `vertex_of`),
 // then random points up to `total_samples`, stratified along the cumulative area so every face gets
-// its share (area * density, rounded randomly).
-struct Samples {
-  std::vector<Point> points;
-  std::vector<uint32_t> vertex_of;  // the vertex of points[i] for i < vertex_of.size()
+// its share (area * density, rounded randomly). Made on demand, batch by batch: sample i is the
+// same whenever and on whichever thread it is made, and the samples are never all in memory.
+class Samples {
+ public:
+  Samples() = default;
+  Samples(const TriMesh& m, std::size_t total_samples, std::uint64_t seed) : m_(&m), seed_(seed) {
+    std::vector<char> used(m.positions.size(), 0);
+    for (const auto& t : m.triangles)
+      if (valid_face(m, t)) used[t[0]] = used[t[1]] = used[t[2]] = 1;
+    for (uint32_t v = 0; v < used.size(); ++v)
+      if (used[v]) vertex_of.push_back(v);
+    const std::size_t nv = vertex_of.size();
+    cumulative_.assign(m.triangles.size() + 1, 0.0);
+    for (std::size_t f = 0; f < m.triangles.size(); ++f) {
+      const auto& t = m.triangles[f];
+      const double area = valid_face(m, t)
+                              ? detail::triangle_area(detail::to_vec3d(m.positions[t[0]]),
+                                                      detail::to_vec3d(m.positions[t[1]]),
+                                                      detail::to_vec3d(m.positions[t[2]]))
+                              : 0.0;
+      cumulative_[f + 1] = cumulative_[f] + area;
+    }
+    total_ = cumulative_.back();
+    // The vertices count towards the total; a mesh with more vertices than that is sampled by
+    // its vertices alone (they are then denser than the requested samples).
+    count_ = total_samples > nv ? total_samples - nv : 0;
+    if (!(total_ > 0)) count_ = 0;
+    if (count_ == 0) std::vector<double>().swap(cumulative_);  // the vertices alone
+  }
+
+  std::vector<uint32_t> vertex_of;  // the vertex of sample i for i < vertex_of.size()
+
+  std::size_t size() const { return vertex_of.size() + count_; }
+
+  // Samples [begin, end) into `out`.
+  void make(std::size_t begin, std::size_t end, Point* out) const {
+    const TriMesh& m = *m_;
+    const std::size_t nv = vertex_of.size();
+    for (std::size_t i = begin; i != end; ++i, ++out) {
+      if (i < nv) {
+        *out = m.positions[vertex_of[i]];
+        continue;
+      }
+      const std::size_t j = i - nv;
+      const std::uint64_t key = seed_ * 0x100000001b3ULL + 3 * j;
+      const double target = (j + unit(key)) / count_ * total_;
+      auto it = std::upper_bound(cumulative_.begin() + 1, cumulative_.end(), target);
+      std::size_t f = std::min<std::size_t>(it - cumulative_.begin() - 1, m.triangles.size() - 1);
+      while (f > 0 && !(cumulative_[f + 1] > cumulative_[f])) --f;
+      const auto& t = m.triangles[f];
+      // Uniform on the triangle: the square-root warp of two uniforms.
+      const double r1 = std::sqrt(unit(key + 1)), r2 = unit(key + 2);
+      const double wa = 1 - r1, wb = r1 * (1 - r2), wc = r1 * r2;
+      const auto &a = m.positions[t[0]], &b = m.positions[t[1]], &c = m.positions[t[2]];
+      for (int k = 0; k < 3; ++k) (*out)[k] = static_cast<float>(wa * a[k] + wb * b[k] + wc * c[k]);
+    }
+  }
+
+ private:
+  const TriMesh* m_ = nullptr;
+  std::uint64_t seed_ = 0;
+  std::vector<double> cumulative_;
+  double total_ = 0;
+  std::size_t count_ = 0;
 };
 
-Samples make_samples(const TriMesh& m, std::size_t total_samples, std::uint64_t seed) {
-  Samples s;
-  std::vector<char> used(m.positions.size(), 0);
-  for (const auto& t : m.triangles)
-    if (valid_face(m, t)) used[t[0]] = used[t[1]] = used[t[2]] = 1;
-  for (uint32_t v = 0; v < used.size(); ++v)
-    if (used[v]) s.vertex_of.push_back(v);
-  const std::size_t nv = s.vertex_of.size();
-
-  std::vector<double> cumulative(m.triangles.size() + 1, 0.0);
-  for (std::size_t f = 0; f < m.triangles.size(); ++f) {
-    const auto& t = m.triangles[f];
-    const double area = valid_face(m, t)
-                            ? detail::triangle_area(detail::to_vec3d(m.positions[t[0]]),
-                                                    detail::to_vec3d(m.positions[t[1]]),
-                                                    detail::to_vec3d(m.positions[t[2]]))
-                            : 0.0;
-    cumulative[f + 1] = cumulative[f] + area;
-  }
-  const double total = cumulative.back();
-  // The vertices count towards the total; a mesh with more vertices than that is sampled by its
-  // vertices alone (they are then denser than the requested samples).
-  std::size_t count = total_samples > nv ? total_samples - nv : 0;
-  if (!(total > 0)) count = 0;
-  s.points.resize(nv + count);
-  tbb::parallel_for(
-      tbb::blocked_range<std::size_t>(0, nv + count, 4096),
-      [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          if (i < nv) {
-            s.points[i] = m.positions[s.vertex_of[i]];
-            continue;
-          }
-          const std::size_t j = i - nv;
-          const std::uint64_t key = seed * 0x100000001b3ULL + 3 * j;
-          const double target = (j + unit(key)) / count * total;
-          auto it = std::upper_bound(cumulative.begin() + 1, cumulative.end(), target);
-          std::size_t f =
-              std::min<std::size_t>(it - cumulative.begin() - 1, m.triangles.size() - 1);
-          while (f > 0 && !(cumulative[f + 1] > cumulative[f])) --f;
-          const auto& t = m.triangles[f];
-          // Uniform on the triangle: the square-root warp of two uniforms.
-          const double r1 = std::sqrt(unit(key + 1)), r2 = unit(key + 2);
-          const double wa = 1 - r1, wb = r1 * (1 - r2), wc = r1 * r2;
-          const auto &a = m.positions[t[0]], &b = m.positions[t[1]], &c = m.positions[t[2]];
-          for (int k = 0; k < 3; ++k)
-            s.points[i][k] = static_cast<float>(wa * a[k] + wb * b[k] + wc * c[k]);
-        }
-      });
-  return s;
-}
-
-DirectedDistance summarize(const std::vector<float>& d) {
+// The distances of the samples of `from` to the surface in `tree`, summed in sample order as they
+// come; `first` (when given) receives the distances of the first samples (its size of them).
+DirectedDistance directed(const Samples& from, const detail::TriangleBvh& tree,
+                          const CancelToken* cancel, const std::function<void(double)>& step,
+                          std::vector<float>* first = nullptr) {
   DirectedDistance out;
   double sum = 0, sum_sq = 0, mx = 0;
-  for (float x : d) {
-    sum += x;
-    sum_sq += static_cast<double>(x) * x;
-    mx = std::max(mx, static_cast<double>(x));
-  }
-  out.samples = d.size();
+  tree.distances(
+      from.size(),
+      [&](std::size_t begin, std::size_t end, Point* points) { from.make(begin, end, points); },
+      [&](std::size_t begin, const float* d, std::size_t n) {
+        for (std::size_t i = 0; i < n; ++i) {
+          const float x = d[i];
+          sum += x;
+          sum_sq += static_cast<double>(x) * x;
+          mx = std::max(mx, static_cast<double>(x));
+        }
+        if (first && begin < first->size())
+          std::copy(d, d + std::min(n, first->size() - begin), first->begin() + begin);
+      },
+      cancel, step);
+  out.samples = from.size();
   out.max = mx;
-  if (!d.empty()) {
-    out.mean = sum / d.size();
-    out.rms = std::sqrt(sum_sq / d.size());
+  if (out.samples > 0) {
+    out.mean = sum / out.samples;
+    out.rms = std::sqrt(sum_sq / out.samples);
   }
   return out;
 }
@@ -174,22 +193,20 @@ CompareResult compare(const TriMesh& a, const TriMesh& b, const CompareOptions& 
       [&] { result.b = measure_welded(b, opts.cancel, result.b_welded); },
       [&] { bvh_a = std::make_unique<detail::TriangleBvh>(a.positions, a.triangles); },
       [&] { bvh_b = std::make_unique<detail::TriangleBvh>(b.positions, b.triangles); },
-      [&] { sa = make_samples(a, opts.samples, opts.seed); },
-      [&] { sb = make_samples(b, opts.samples, opts.seed + 1); });
+      [&] { sa = Samples(a, opts.samples, opts.seed); },
+      [&] { sb = Samples(b, opts.samples, opts.seed + 1); });
   detail::report_progress(opts.progress, opts.cancel, 0.1);
 
-  const double total = static_cast<double>(sa.points.size() + sb.points.size());
+  const double total = static_cast<double>(sa.size() + sb.size());
   auto stepper = [&](double offset, double size) {
     return [&opts, offset, size, total](double f) {
       detail::report_progress(opts.progress, nullptr, 0.1 + 0.9 * (offset + f * size) / total);
     };
   };
-  const double na = static_cast<double>(sa.points.size());
-  const std::vector<float> da = bvh_b->distances(sa.points, opts.cancel, stepper(0, na));
-  const std::vector<float> db = bvh_a->distances(sb.points, opts.cancel, stepper(na, total - na));
-
-  result.a_to_b = summarize(da);
-  result.b_to_a = summarize(db);
+  const double na = static_cast<double>(sa.size());
+  std::vector<float> da(sa.vertex_of.size());  // the distances of a's vertices
+  result.a_to_b = directed(sa, *bvh_b, opts.cancel, stepper(0, na), &da);
+  result.b_to_a = directed(sb, *bvh_a, opts.cancel, stepper(na, total - na));
   result.hausdorff = std::max(result.a_to_b.max, result.b_to_a.max);
 
   // Per vertex of a; unreferenced vertices get their distance too (they are not samples).

@@ -18,7 +18,8 @@ struct DirectedDistance {
   std::size_t samples = 0;
 };
 
-/// The most surface samples compare() takes per surface (32 bytes each, twice).
+/// The most surface samples compare() takes per surface (made and measured in batches: they are
+/// never all in memory).
 inline constexpr std::size_t kMostCompareSamples = 100000000;
 
 /// Options of compare().
