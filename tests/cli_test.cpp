@@ -345,6 +345,7 @@ TEST_F(Cli, ADecimationThatStopsAboveItsTargetSaysSoOnStderr) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.err.find("note: decimation stopped at"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("above the 500 asked for"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--decimate quality"), std::string::npos) << "the way further: " << r.err;
   const CliRun ok = run("mesh --preset unit-ball --resolution 48 --faces 2000 --quiet -o b.ply");
   ASSERT_EQ(ok.code, 0) << ok.err;
   EXPECT_EQ(ok.err.find("note:"), std::string::npos) << ok.err;
@@ -364,6 +365,41 @@ TEST_F(Cli, ADecimationThatStopsAboveItsTargetSaysSoOnStderr) {
   EXPECT_EQ(t["euler"], w["euler"]);
   EXPECT_EQ(t["components"], w["components"]);
   EXPECT_TRUE(t["closed"].get<bool>() && t["manifold"].get<bool>());
+}
+
+TEST_F(Cli, TheQualityDecimationReachesABudgetTheGuardStopsAboveKeepingTheTopology) {
+  // Newton's cubic at 48 (70,000 faces, genus in the hundreds) to 12,000 faces: the fast
+  // method's guard stops above it; OpenMesh's Decimater reaches it with the same components and
+  // Euler characteristic.
+  const CliRun whole = run("mesh --resolution 48 --quiet -o w.ply --stats w.json");
+  ASSERT_EQ(whole.code, 0) << whole.err;
+  const CliRun fast = run("mesh --resolution 48 --faces 12000 --quiet -o f.ply --stats f.json");
+  ASSERT_EQ(fast.code, 0) << fast.err;
+  const CliRun quality =
+      run("mesh --resolution 48 --faces 12000 --decimate quality --quiet -o q.ply --stats q.json");
+  ASSERT_EQ(quality.code, 0) << quality.err;
+  EXPECT_EQ(quality.err.find("note:"), std::string::npos) << quality.err;
+  const json w = json::parse(read_text(work_ / "w.json")),
+             f = json::parse(read_text(work_ / "f.json")),
+             q = json::parse(read_text(work_ / "q.json"));
+  EXPECT_EQ(f["decimate"]["target_reached"], false);
+  EXPECT_GT(f["faces"].get<long long>(), 12000);
+  EXPECT_EQ(q["decimate"]["target_reached"], true);
+  EXPECT_LE(q["faces"].get<long long>(), 12000);
+  EXPECT_GT(q["faces"].get<long long>(), 6000);
+  EXPECT_EQ(q["euler"], w["euler"]);
+  EXPECT_EQ(q["components"], w["components"]);
+  EXPECT_TRUE(q["closed"].get<bool>() && q["manifold"].get<bool>() && q["oriented"].get<bool>());
+  EXPECT_EQ(q["parameters"]["mesh"]["decimate"], "quality");
+  EXPECT_FALSE(f["parameters"]["mesh"].contains("decimate"));
+  // The method is recorded in the file: meshing its parameters again decimates the same way.
+  const CliRun again = run("params q.ply");
+  ASSERT_EQ(again.code, 0) << again.err;
+  EXPECT_NE(again.out.find("\"decimate\": \"quality\""), std::string::npos) << again.out;
+  const CliRun bad = run("mesh --resolution 16 --faces 100 --decimate best --quiet -o b.ply");
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_NE(bad.err.find("--decimate: expected fast or quality, not 'best'"), std::string::npos)
+      << bad.err;
 }
 
 TEST_F(Cli, AnUnknownCommandExitsTwo) {

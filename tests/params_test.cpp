@@ -76,6 +76,7 @@ void expect_same(const Params& a, const Params& b) {
   EXPECT_EQ(a.mesh.color, b.mesh.color);
   EXPECT_EQ(a.mesh.faces, b.mesh.faces);
   EXPECT_EQ(a.mesh.max_error, b.mesh.max_error);
+  EXPECT_EQ(a.mesh.decimate, b.mesh.decimate);
   EXPECT_EQ(a.mesh.min_component, b.mesh.min_component);
   ASSERT_EQ(a.mesh.clip.size(), b.mesh.clip.size());
   for (std::size_t i = 0; i < a.mesh.clip.size(); ++i) {
@@ -124,6 +125,7 @@ TEST(Params, ANonDefaultSetWithEveryOptionSurvivesARoundTrip) {
   p.mesh.color = ColorMode::kBasin;
   p.mesh.faces = 12345;
   p.mesh.max_error = 0.002;
+  p.mesh.decimate = Decimation::kQuality;
   p.mesh.min_component = 1e-4;
   p.mesh.clip = {{{0, 0, 1}, 0.1}, {{1, 2, 3}, -0.5}};
   p.print.size_mm = 80;
@@ -188,6 +190,22 @@ TEST(Params, UnknownPresetThrowsAndListsTheKnownOnes) {
 
 // ---------------------------------------------------------------------------------------------
 // Parse errors name the key
+
+TEST(Params, TheDecimationMethodIsReadWrittenWhenNotTheDefaultAndChecked) {
+  EXPECT_EQ(parse_params(R"({"mesh": {"decimate": "quality"}})").mesh.decimate,
+            Decimation::kQuality);
+  EXPECT_EQ(parse_params(R"({"mesh": {"decimate": "fast"}})").mesh.decimate, Decimation::kFast);
+  EXPECT_EQ(parse_params("{}").mesh.decimate, Decimation::kFast);
+  // The default is left out, so that files written before it read back the same.
+  Params p;
+  EXPECT_EQ(params_to_json(p).find("decimate"), std::string::npos);
+  p.mesh.decimate = Decimation::kQuality;
+  EXPECT_NE(params_to_json(p).find("\"decimate\": \"quality\""), std::string::npos)
+      << params_to_json(p);
+  const std::string msg = parse_error(R"({"mesh": {"decimate": "best"}})");
+  EXPECT_NE(msg.find("mesh.decimate"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("best"), std::string::npos) << msg;
+}
 
 TEST(Params, UnknownTopLevelKeyIsAnErrorNamingTheKey) {
   const std::string msg = parse_error(R"({"formula": "h^2", "colour": "red"})");

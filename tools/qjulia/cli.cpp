@@ -171,10 +171,11 @@ std::optional<std::size_t> max_memory_from_args(const ParsedArgs& args) {
 }
 
 std::vector<OptionSpec> param_option_specs() {
-  return {{"preset"},        {"formula"}, {"const"},      {"mode"},          {"method"},
-          {"iterations"},    {"bailout"}, {"resolution"}, {"bounds"},        {"axes"},
-          {"fixed"},         {"start"},   {"color"},      {"faces"},         {"max-error"},
-          {"min-component"}, {"clip"},    {"size"},       {"min-thickness"}, {"check", false}};
+  return {{"preset"},      {"formula"},       {"const"},      {"mode"},   {"method"},
+          {"iterations"},  {"bailout"},       {"resolution"}, {"bounds"}, {"axes"},
+          {"fixed"},       {"start"},         {"color"},      {"faces"},  {"max-error"},
+          {"decimate"},    {"min-component"}, {"clip"},       {"size"},   {"min-thickness"},
+          {"check", false}};
 }
 
 Params params_from_args(const ParsedArgs& args, const std::string& params_file) {
@@ -249,6 +250,14 @@ Params params_from_args(const ParsedArgs& args, const std::string& params_file) 
   if (auto v = args.get("faces")) p.mesh.faces = parse_int(*v, "--faces", kFacesRange);
   if (auto v = args.get("max-error"))
     p.mesh.max_error = parse_double(*v, "--max-error", kMaxErrorRange);
+  if (auto v = args.get("decimate")) {
+    if (*v == "fast")
+      p.mesh.decimate = Decimation::kFast;
+    else if (*v == "quality")
+      p.mesh.decimate = Decimation::kQuality;
+    else
+      throw InvalidInput("--decimate: expected fast or quality, not '" + *v + "'");
+  }
   if (auto v = args.get("min-component"))
     p.mesh.min_component = parse_double(*v, "--min-component", kMinComponentRange);
   for (const std::string& c : args.all("clip")) {

@@ -40,6 +40,11 @@ mesh:
   --color iterations|basin|none   per-vertex colours
   --faces N                  decimate to at most N faces, 4..1000000000
   --max-error E              decimate within distance E (model units), 1e-09..1000000
+  --decimate fast|quality    how: fast (the default), meshoptimizer under a topology guard that
+                             stops above a budget where collapsing more would change the
+                             components or the genus; quality, OpenMesh's Decimater, which
+                             keeps the genus by its own test and reaches such budgets, on one
+                             thread (several times slower)
   --min-component V          drop components of volume below V (model units^3), 0..1e+18
   --clip nx,ny,nz,d          keep n.x <= d, closed by a flat cap (repeatable); components
                              -1000000..1000000, n not zero
@@ -206,10 +211,18 @@ void finish_mesh_command(MeshCommand& cmd, RunStats& stats, const TriMesh* mesh,
     const auto& mp = cmd.params.mesh;
     if (mp.faces && d.faces_after > static_cast<std::size_t>(*mp.faces))
       std::fprintf(stderr,
-                   "%s: note: decimation stopped at %zu faces, above the %lld asked for "
-                   "(collapsing more edges would change the topology%s)\n",
+                   mp.decimate == Decimation::kFast
+                       ? "%s: note: decimation stopped at %zu faces, above the %lld asked for "
+                         "(collapsing more edges would change the topology%s); --decimate "
+                         "quality keeps the topology by its own test and can go further, more "
+                         "slowly\n"
+                       : "%s: note: decimation stopped at %zu faces, above the %lld asked for "
+                         "(no collapse left keeps the genus%s and turns a face by less than 45 "
+                         "degrees)\n",
                    cmd.program.c_str(), d.faces_after, *mp.faces,
-                   mp.max_error ? " or exceed --max-error" : "");
+                   mp.max_error ? (mp.decimate == Decimation::kFast ? " or exceed --max-error"
+                                                                    : ", stays within --max-error")
+                                : "");
     else
       std::fprintf(stderr,
                    "%s: note: the decimated mesh is %.3g from the input, above --max-error\n",

@@ -120,6 +120,12 @@ ColorMode parse_color(const std::string& s, const std::string& source) {
   fail(source, "'mesh.color' must be \"none\", \"iterations\" or \"basin\", not \"" + s + "\"");
 }
 
+Decimation parse_decimation(const std::string& s, const std::string& source) {
+  if (s == "fast") return Decimation::kFast;
+  if (s == "quality") return Decimation::kQuality;
+  fail(source, "'mesh.decimate' must be \"fast\" or \"quality\", not \"" + s + "\"");
+}
+
 Quat axis_quat(char axis) {
   switch (axis) {
     case 'r':
@@ -179,6 +185,8 @@ void Params::set_constant(const std::string& name, const Quat& value) {
 
 const char* to_string(Method m) { return m == Method::kEscape ? "escape" : "cutoff"; }
 const char* to_string(Mode m) { return m == Mode::kJulia ? "julia" : "mandelbrot"; }
+const char* to_string(Decimation d) { return d == Decimation::kQuality ? "quality" : "fast"; }
+
 const char* to_string(ColorMode m) {
   return m == ColorMode::kNone ? "none" : m == ColorMode::kIterations ? "iterations" : "basin";
 }
@@ -332,13 +340,17 @@ Params parse_params(const std::string& json_text, const std::string& source) {
   if (j.contains("mesh")) {
     const json& m = j["mesh"];
     if (!m.is_object()) fail(source, "'mesh' must be an object");
-    check_keys(m, {"color", "faces", "max_error", "min_component", "clip"}, source, "mesh.");
+    check_keys(m, {"color", "faces", "max_error", "decimate", "min_component", "clip"}, source,
+               "mesh.");
     if (m.contains("color"))
       p.mesh.color = parse_color(get_string(m["color"], source, "mesh.color"), source);
     if (m.contains("faces") && !m["faces"].is_null())
       p.mesh.faces = get_integer(m["faces"], source, "mesh.faces", kFacesRange);
     if (m.contains("max_error") && !m["max_error"].is_null())
       p.mesh.max_error = get_number(m["max_error"], source, "mesh.max_error");
+    if (m.contains("decimate"))
+      p.mesh.decimate =
+          parse_decimation(get_string(m["decimate"], source, "mesh.decimate"), source);
     if (m.contains("min_component") && !m["min_component"].is_null())
       p.mesh.min_component = get_number(m["min_component"], source, "mesh.min_component");
     if (m.contains("clip")) {
@@ -410,6 +422,8 @@ std::string params_to_json(const Params& p, bool pretty) {
   m["color"] = to_string(p.mesh.color);
   if (p.mesh.faces) m["faces"] = *p.mesh.faces;
   if (p.mesh.max_error) m["max_error"] = *p.mesh.max_error;
+  // Written when not the default, so that files without it read back the same.
+  if (p.mesh.decimate != Decimation::kFast) m["decimate"] = to_string(p.mesh.decimate);
   if (p.mesh.min_component) m["min_component"] = *p.mesh.min_component;
   if (!p.mesh.clip.empty()) {
     m["clip"] = json::array();

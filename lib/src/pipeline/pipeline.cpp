@@ -164,6 +164,8 @@ void finish_mesh(const Params& params, const PipelineOptions& opts, TriMesh& mes
   if (params.mesh.faces || params.mesh.max_error) {
     DecimateOptions dopts;
     dopts.faces = params.mesh.faces;
+    dopts.method = params.mesh.decimate == Decimation::kQuality ? DecimateMethod::kQuality
+                                                                : DecimateMethod::kFast;
     // max_error is in model units; the mesh may have been scaled to millimetres.
     if (params.mesh.max_error) dopts.max_error = *params.mesh.max_error * stats.scale;
     dopts.avoid_self_intersections = params.print.check;

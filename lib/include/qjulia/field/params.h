@@ -80,11 +80,17 @@ struct ClipPlane {
 /// Per-vertex colour written by the exporters.
 enum class ColorMode { kNone, kIterations, kBasin };
 
+/// How a face budget or error bound is met (qjulia::DecimateMethod): "fast", meshoptimizer under
+/// qjulia's topology guard, or "quality", OpenMesh's Decimater, which keeps the genus by its own
+/// test and reaches budgets on fractal meshes where the guard stops (slower, one thread).
+enum class Decimation { kFast, kQuality };
+
 /// Options of the stages after sampling (the "mesh" section of the parameter file).
 struct MeshParams {
   ColorMode color = ColorMode::kNone;   ///< COLOR_0 / vertex colours
   std::optional<long long> faces;       ///< decimate to at most this many faces
   std::optional<double> max_error;      ///< decimation error bound, model units
+  Decimation decimate = Decimation::kFast;  ///< the decimation method (with faces or max_error)
   std::optional<double> min_component;  ///< drop components below this volume (model
                                         ///< units^3); unset = the default of clean()
   std::vector<ClipPlane> clip;          ///< sections, applied to the field before meshing
@@ -147,6 +153,7 @@ Params preset(const std::string& name);
 const char* to_string(Method m);
 const char* to_string(Mode m);
 const char* to_string(ColorMode m);
+const char* to_string(Decimation d);
 
 /// Where the grid points of a parameter set are: point (i, j, k) is at origin + (i, j, k) *
 /// voxel for 0 <= i < points[0] etc., at the centres of voxels of the box, so the walls of the
