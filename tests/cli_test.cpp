@@ -396,6 +396,11 @@ TEST_F(Cli, TheQualityDecimationReachesABudgetTheGuardStopsAboveKeepingTheTopolo
   const CliRun again = run("params q.ply");
   ASSERT_EQ(again.code, 0) << again.err;
   EXPECT_NE(again.out.find("\"decimate\": \"quality\""), std::string::npos) << again.out;
+  // Alone, --decimate changes nothing, and says so.
+  const CliRun alone = run("mesh --resolution 16 --decimate quality --quiet -o a.ply");
+  ASSERT_EQ(alone.code, 0) << alone.err;
+  EXPECT_NE(alone.err.find("without either the mesh is not decimated"), std::string::npos)
+      << alone.err;
   const CliRun bad = run("mesh --resolution 16 --faces 100 --decimate best --quiet -o b.ply");
   EXPECT_EQ(bad.code, 2);
   EXPECT_NE(bad.err.find("--decimate: expected fast or quality, not 'best'"), std::string::npos)

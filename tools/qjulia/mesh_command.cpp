@@ -122,6 +122,11 @@ std::unique_ptr<MeshCommand> parse_mesh_command(const std::vector<std::string>& 
   format_from_path(cmd->out);  // an unknown extension fails before any work
   cmd->params = params_from_args(args, args.positional.empty() ? "" : args.positional[0]);
   cmd->params_json = params_to_json(cmd->params);
+  if (args.get("decimate") && !cmd->params.mesh.faces && !cmd->params.mesh.max_error)
+    std::fprintf(stderr,
+                 "%s: note: --decimate chooses how --faces or --max-error is met; without "
+                 "either the mesh is not decimated\n",
+                 cmd->program.c_str());
   cmd->threads = std::make_unique<ThreadLimit>(args);
   cmd->preview = args.output_file("preview");
   cmd->stats_path = args.output_file("stats");
