@@ -251,12 +251,9 @@ Params params_from_args(const ParsedArgs& args, const std::string& params_file) 
   if (auto v = args.get("max-error"))
     p.mesh.max_error = parse_double(*v, "--max-error", kMaxErrorRange);
   if (auto v = args.get("decimate")) {
-    if (*v == "fast")
-      p.mesh.decimate = Decimation::kFast;
-    else if (*v == "quality")
-      p.mesh.decimate = Decimation::kQuality;
-    else
-      throw InvalidInput("--decimate: expected fast or quality, not '" + *v + "'");
+    const auto d = decimation_named(*v);
+    if (!d) throw InvalidInput("--decimate: expected fast or quality, not '" + *v + "'");
+    p.mesh.decimate = *d;
   }
   if (auto v = args.get("min-component"))
     p.mesh.min_component = parse_double(*v, "--min-component", kMinComponentRange);

@@ -215,28 +215,30 @@ void finish_mesh_command(MeshCommand& cmd, RunStats& stats, const TriMesh* mesh,
   if (stats.decimate && !stats.decimate->target_reached) {
     const auto& d = *stats.decimate;
     const auto& mp = cmd.params.mesh;
-    if (mp.faces && d.faces_after > static_cast<std::size_t>(*mp.faces))
+    const bool fast = mp.decimate == Decimation::kFast;
+    if (mp.faces && d.faces_after > static_cast<std::size_t>(*mp.faces)) {
+      const char* why =
+          fast ? (mp.max_error ? "collapsing more edges would change the topology or exceed "
+                                 "--max-error"
+                               : "collapsing more edges would change the topology")
+               : (mp.max_error ? "no collapse left keeps the genus, stays within --max-error and "
+                                 "turns a face by less than 45 degrees"
+                               : "no collapse left keeps the genus and turns a face by less than "
+                                 "45 degrees");
       std::fprintf(stderr,
-                   mp.decimate == Decimation::kFast
-                       ? "%s: note: decimation stopped at %zu faces, above the %lld asked for "
-                         "(collapsing more edges would change the topology%s); --decimate "
-                         "quality keeps the topology by its own test and can go further, more "
-                         "slowly\n"
-                       : "%s: note: decimation stopped at %zu faces, above the %lld asked for "
-                         "(no collapse left keeps the genus%s and turns a face by less than 45 "
-                         "degrees)\n",
-                   cmd.program.c_str(), d.faces_after, *mp.faces,
-                   mp.max_error ? (mp.decimate == Decimation::kFast ? " or exceed --max-error"
-                                                                    : ", stays within --max-error")
-                                : "");
-    else
+                   "%s: note: decimation stopped at %zu faces, above the %lld asked for (%s)%s\n",
+                   cmd.program.c_str(), d.faces_after, *mp.faces, why,
+                   fast ? "; --decimate quality keeps the topology by its own test and can go "
+                          "further, more slowly"
+                        : "");
+    } else {
       std::fprintf(stderr,
                    "%s: note: the decimated mesh is %.3g from the input, above --max-error%s\n",
                    cmd.program.c_str(), d.hausdorff,
-                   mp.decimate == Decimation::kQuality
-                       ? " (the quality method bounds only the input's vertices; the fast "
-                         "method holds such bounds)"
-                       : "");
+                   fast ? ""
+                        : " (the quality method bounds only the input's vertices; the fast "
+                          "method holds such bounds)");
+    }
   }
   double total = 0;
   for (const auto& [stage, s] : stats.timings) total += s;

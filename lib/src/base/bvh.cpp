@@ -428,11 +428,11 @@ void TriangleBvh::distances(std::size_t count, const PointSource& source, const 
     const std::size_t blocks = (end - begin + kBlock - 1) / kBlock;
     tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t block) {
       const std::size_t first = block * kBlock, last = std::min(end - begin, first + kBlock);
-      source(begin + first, begin + last, points.data() + first);
-      if (empty()) {
+      if (empty()) {  // no surface: every distance is infinite, and no point is needed
         std::fill(d.begin() + first, d.begin() + last, std::numeric_limits<float>::infinity());
         return;
       }
+      source(begin + first, begin + last, points.data() + first);
       // Consecutive points are close: the previous hit is a good start.
       uint32_t hint = UINT32_MAX;
       for (std::size_t i = first; i < last; ++i) {

@@ -121,8 +121,7 @@ ColorMode parse_color(const std::string& s, const std::string& source) {
 }
 
 Decimation parse_decimation(const std::string& s, const std::string& source) {
-  if (s == "fast") return Decimation::kFast;
-  if (s == "quality") return Decimation::kQuality;
+  if (const auto d = decimation_named(s)) return *d;
   fail(source, "'mesh.decimate' must be \"fast\" or \"quality\", not \"" + s + "\"");
 }
 
@@ -186,6 +185,12 @@ void Params::set_constant(const std::string& name, const Quat& value) {
 const char* to_string(Method m) { return m == Method::kEscape ? "escape" : "cutoff"; }
 const char* to_string(Mode m) { return m == Mode::kJulia ? "julia" : "mandelbrot"; }
 const char* to_string(Decimation d) { return d == Decimation::kQuality ? "quality" : "fast"; }
+
+std::optional<Decimation> decimation_named(const std::string& name) {
+  for (Decimation d : {Decimation::kFast, Decimation::kQuality})
+    if (name == to_string(d)) return d;
+  return std::nullopt;
+}
 
 const char* to_string(ColorMode m) {
   return m == ColorMode::kNone ? "none" : m == ColorMode::kIterations ? "iterations" : "basin";

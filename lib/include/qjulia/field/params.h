@@ -154,6 +154,8 @@ const char* to_string(Method m);
 const char* to_string(Mode m);
 const char* to_string(ColorMode m);
 const char* to_string(Decimation d);
+/// The method named `name` ("fast", "quality": to_string()'s names), or none.
+std::optional<Decimation> decimation_named(const std::string& name);
 
 /// Where the grid points of a parameter set are: point (i, j, k) is at origin + (i, j, k) *
 /// voxel for 0 <= i < points[0] etc., at the centres of voxels of the box, so the walls of the
