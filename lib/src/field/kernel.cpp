@@ -143,15 +143,17 @@ HWY_INLINE Q slice_point(V x, V y, V z, const Q& o, const Q& d0, const Q& d1, co
 // The metric of the step from h to q and whether the orbit leaves there: escape, |q|^2 > R^2
 // (NaN and inf leave too); cut-off, |q - h|^2 < r^2 (converged), or a pole or an overflow (a
 // large step that never converges).
+// The lanes whose step metric makes their orbit leave (the test step_metric() applies).
+template <bool kEscape>
+HWY_INLINE M leaves(V metric, V r2) {
+  if (kEscape) return hn::Not(hn::Le(metric, r2));
+  return hn::Or(hn::Not(hn::Ge(metric, r2)), hn::Not(hn::IsFinite(metric)));
+}
+
 template <bool kEscape>
 HWY_INLINE V step_metric(const Q& q, const Q& h, V r2, M& exit) {
-  if (kEscape) {
-    const V metric = norm2(q);
-    exit = hn::Not(hn::Le(metric, r2));
-    return metric;
-  }
-  const V metric = norm2(sub(q, h));
-  exit = hn::Or(hn::Not(hn::Ge(metric, r2)), hn::Not(hn::IsFinite(metric)));
+  const V metric = kEscape ? norm2(q) : norm2(sub(q, h));
+  exit = leaves<kEscape>(metric, r2);
   return metric;
 }
 
@@ -572,11 +574,25 @@ HWY_INLINE V reciprocal(V x) {
 #endif
 }
 
+// 1 / x within an ulp or so: the estimate and two Newton steps, for the last operations of F
+// (its logarithms and its fraction), whose rounding no later step amplifies; the orbits' own
+// inverses take reciprocal(), whose third step rounds as the scalar path's division does.
+HWY_INLINE V reciprocal_final(V x) {
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+  const V one = hn::Set(D(), 1.0);
+  V r{_mm512_rcp14_pd(x.raw)};
+  r = hn::MulAdd(r, hn::NegMulAdd(x, r, one), r);
+  return hn::MulAdd(r, hn::NegMulAdd(x, r, one), r);
+#else
+  return reciprocal(x);
+#endif
+}
+
 // a / (a + b) for a > 0, b >= 0, either possibly infinite (the fractional part of F).
 HWY_INLINE V frac(V a, V b) {
   const D d;
   const auto ia = hn::IsInf(a), ib = hn::IsInf(b);
-  V r = hn::Mul(a, reciprocal(hn::Add(a, b)));
+  V r = hn::Mul(a, reciprocal_final(hn::Add(a, b)));
   r = hn::IfThenElse(ib, hn::Zero(d), r);
   return hn::IfThenElse(ia, hn::IfThenElse(ib, hn::Set(d, 0.5), hn::Set(d, 1.0)), r);
 }
@@ -597,7 +613,7 @@ HWY_INLINE V log_normal(V x) {
                      hn::BitCast(d, hn::Add(hn::And(exp_bits, hn::Set(di, 0xFFFFF00000000LL)),
                                             hn::Set(di, 0x3FE6A09E00000000LL))));
   const V ym1 = hn::Sub(y, one);
-  const V z = hn::Mul(ym1, reciprocal(hn::Add(y, one)));
+  const V z = hn::Mul(ym1, reciprocal_final(hn::Add(y, one)));
   const V z2 = hn::Mul(z, z), z4 = hn::Mul(z2, z2);
   const V poly = hn::MulAdd(hn::MulAdd(hn::MulAdd(hn::MulAdd(hn::Set(d, 0.1479819860511658591), z4,
                                                              hn::Set(d, 0.1818357216161805012)),
@@ -1081,12 +1097,16 @@ class Machine {
     constexpr int kRefillAt = 2;
     const D d;
     const V r2 = hn::Set(d, s_->r2), iters = hn::Set(d, s_->iterations), one = hn::Set(d, 1.0);
-    const V zero = hn::Zero(d);
+    const V zero = hn::Zero(d), inf = hn::Set(d, std::numeric_limits<double>::infinity());
     // Per group: h (and c), the steps taken k, the last metric a and the one before, the
-    // extreme; masks of the lanes still running, decided since their last refill, and left.
+    // extreme; masks of the lanes still running and of those holding an orbit (running or
+    // decided since their last refill). The steps update only the running lanes' mask: which
+    // decided orbits left is read from their last metric when they are finished (mask
+    // operations share ports with the vector arithmetic on some CPUs, and eight mask registers
+    // do not hold three masks of four groups).
     Q h[kGroup], c[kGroup];
     V k[kGroup], a[kGroup], prev[kGroup], ext[kGroup];
-    __mmask8 live[kGroup], pending[kGroup], left[kGroup];
+    __mmask8 live[kGroup], held[kGroup];
     // The points straight from the slice, without the queue, as queue() computes them; each
     // lane's point index waits in idx_ (read only when the lane's orbit is finished). The
     // slice's constants are read at each refill, not held in registers the steps need.
@@ -1148,8 +1168,7 @@ class Machine {
       h[g] = Step::idle();
       c[g] = {zero, zero, zero, zero};
       k[g] = a[g] = prev[g] = ext[g] = zero;
-      pending[g] = left[g] = 0;
-      live[g] = load(group, 0xff);
+      live[g] = held[g] = load(group, 0xff);
     });
     for (;;) {
       // kSteps steps of every vector, without a branch on the data.
@@ -1157,7 +1176,7 @@ class Machine {
         for_groups<kGroup>([&](auto group) __attribute__((always_inline)) {
           constexpr std::size_t g = decltype(group)::value;
           V metric;
-          M exit;
+          M exit;  // not read: the masked compares below decide
           const __mmask8 run = live[g];
           // Lanes outside `run` (decided, or empty) compute on from the step's idle value.
           const Q q = st.template step<kEscape>(run, h[g], c[g], r2, metric, exit);
@@ -1167,10 +1186,17 @@ class Machine {
                                : _mm512_mask_min_pd(ext[g].raw, run, ext[g].raw, metric.raw)};
           prev[g] = V{_mm512_mask_mov_pd(prev[g].raw, run, a[g].raw)};
           a[g] = V{_mm512_mask_mov_pd(a[g].raw, run, metric.raw)};
-          const __mmask8 now = run & hn::Or(exit, hn::Eq(k[g], iters)).raw;
-          left[g] |= now & exit.raw;
-          live[g] = run & static_cast<__mmask8>(~now);
-          pending[g] |= now;
+          // Running on: within the bailout (escape) or not converged and finite (cut-off),
+          // and short of N steps; as compares masked by the lanes before, the negation of
+          // leaves().
+          __mmask8 on;
+          if (kEscape) {
+            on = _mm512_mask_cmp_pd_mask(run, metric.raw, r2.raw, _CMP_LE_OQ);
+          } else {
+            on = _mm512_mask_cmp_pd_mask(run, metric.raw, r2.raw, _CMP_GE_OQ);
+            on = _mm512_mask_cmp_pd_mask(on, metric.raw, inf.raw, _CMP_LT_OQ);
+          }
+          live[g] = _mm512_mask_cmp_pd_mask(on, k[g].raw, iters.raw, _CMP_NEQ_OQ);
           h[g] = q;  // a lane decided now is zeroed at the next step
         });
       }
@@ -1179,13 +1205,13 @@ class Machine {
       for_groups<kGroup>([&](auto group) __attribute__((always_inline)) {
         constexpr std::size_t g = decltype(group)::value;
         const __mmask8 waiting = static_cast<__mmask8>(~live[g]);
-        if (pending[g] && (__builtin_popcount(waiting) >= kRefillAt || live[g] == 0)) {
-          const M m{pending[g]};
-          const V code = exit_code<kEscape>(M{left[g]}, k[g], a[g]);
-          finished(m, code, a[g], second<kExt>(code, prev[g], ext[g]), hn::Load(d, idx_ + 8 * g));
-          pending[g] = 0;
-          left[g] = 0;
+        const __mmask8 pending = held[g] & waiting;  // decided since the last refill
+        if (pending && (__builtin_popcount(waiting) >= kRefillAt || live[g] == 0)) {
+          const V code = exit_code<kEscape>(leaves<kEscape>(a[g], r2), k[g], a[g]);
+          finished(M{pending}, code, a[g], second<kExt>(code, prev[g], ext[g]),
+                   hn::Load(d, idx_ + 8 * g));
           live[g] |= load(group, waiting);
+          held[g] = live[g];
         }
         any = any || live[g] != 0;
       });
@@ -1211,7 +1237,7 @@ class Machine {
     const V zero = hn::Zero(d);
     Q h[kGroup], c[kGroup];
     V k[kGroup], a[kGroup], prev[kGroup], ext[kGroup];
-    __m256d live[kGroup], pending[kGroup], left[kGroup];
+    __m256d live[kGroup], held[kGroup];  // as in the AVX-512 path
     HWY_ALIGN static constexpr double kIota[4] = {0, 1, 2, 3};
     std::size_t next = 0;  // the next point of the slice
     auto lanes_of = [](unsigned m) __attribute__((always_inline)) {
@@ -1273,11 +1299,10 @@ class Machine {
     };
     for_groups<kGroup>([&](auto group) __attribute__((always_inline)) {
       constexpr std::size_t g = decltype(group)::value;
-      pending[g] = left[g] = _mm256_setzero_pd();
       h[g] = Step::idle();
       c[g] = {zero, zero, zero, zero};
       k[g] = a[g] = prev[g] = ext[g] = zero;
-      live[g] = load(group, 0xf);
+      live[g] = held[g] = load(group, 0xf);
     });
     for (;;) {
       for (int step = 0; step < kSteps; ++step) {
@@ -1296,11 +1321,9 @@ class Machine {
                 run)};
           prev[g] = V{_mm256_blendv_pd(prev[g].raw, a[g].raw, run)};
           a[g] = V{_mm256_blendv_pd(a[g].raw, metric.raw, run)};
-          const __m256d now = _mm256_and_pd(
-              run, _mm256_or_pd(exit.raw, _mm256_cmp_pd(k[g].raw, iters.raw, _CMP_EQ_OQ)));
-          left[g] = _mm256_or_pd(left[g], _mm256_and_pd(now, exit.raw));
-          live[g] = _mm256_andnot_pd(now, run);
-          pending[g] = _mm256_or_pd(pending[g], now);
+          // Running on: not leaving, and short of N steps.
+          const __m256d on = _mm256_andnot_pd(exit.raw, run);
+          live[g] = _mm256_andnot_pd(_mm256_cmp_pd(k[g].raw, iters.raw, _CMP_EQ_OQ), on);
           h[g] = q;
         });
       }
@@ -1310,13 +1333,14 @@ class Machine {
         constexpr std::size_t g = decltype(group)::value;
         const unsigned livebits = static_cast<unsigned>(_mm256_movemask_pd(live[g]));
         const unsigned waiting = ~livebits & 0xfu;
-        if (_mm256_movemask_pd(pending[g]) != 0 &&
+        const __m256d pending = _mm256_andnot_pd(live[g], held[g]);
+        if (_mm256_movemask_pd(pending) != 0 &&
             (__builtin_popcount(waiting) >= kRefillAt || livebits == 0)) {
-          const V code = exit_code<kEscape>(M{left[g]}, k[g], a[g]);
-          finished(M{pending[g]}, code, a[g], second<kExt>(code, prev[g], ext[g]),
+          const V code = exit_code<kEscape>(leaves<kEscape>(a[g], r2), k[g], a[g]);
+          finished(M{pending}, code, a[g], second<kExt>(code, prev[g], ext[g]),
                    hn::Load(d, idx_ + 4 * g));
-          pending[g] = left[g] = _mm256_setzero_pd();
           live[g] = _mm256_or_pd(live[g], load(group, waiting));
+          held[g] = live[g];
         }
         any = any || _mm256_movemask_pd(live[g]) != 0;
       });
