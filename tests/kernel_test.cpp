@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <random>
@@ -755,6 +756,77 @@ TEST(Kernel, AnalyticFunctionsMatchTheScalarOnesAtTheExtremesAndOnTheNegativeRea
     }
   }
   hwy::SetSupportedTargetsForTest(0);
+}
+
+TEST(Kernel, VectorsMixingSpecialAndOrdinaryOrbitsGiveEachOrbitItsOwnValue) {
+  // F and the refinement values of a vector whose metrics are all positive normal numbers skip
+  // the special cases' tests; one lane with a special metric sends its whole vector the long
+  // way. Both ways must give every ordinary orbit the same value, and the special one its own,
+  // wherever it sits in its vector. Special orbits: newton-cubic's pole at 0 (an infinite
+  // metric) and its exact fixed point 1 (a step of length 0), and h^2 + 5 from 0 (it escapes at
+  // its first step, from a previous iterate of norm 0).
+  Params escape;
+  escape.formula = "h^2 + 5";
+  escape.method = Method::kEscape;
+  escape.bailout = 4;
+  escape.iterations = 10;
+  struct Special {
+    std::array<double, 3> at;  // slice coordinates
+    int exit_step;             // of its orbit (-1 at a pole)
+    bool pole;                 // F is -limit
+  };
+  struct Case {
+    Params p;
+    std::vector<Special> special;
+  };
+  const std::vector<Case> cases = {
+      {preset("newton-cubic"), {{{0, 0, 0}, -1, true}, {{1, 0, 0}, 1, false}}},
+      {escape, {{{0, 0, 0}, 1, false}}}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.p.formula);
+    const Classifier cls(c.p);
+    const detail::KernelSetup* k = cls.kernel();
+    ASSERT_NE(k, nullptr);
+    std::mt19937_64 rng(99);
+    std::uniform_real_distribution<double> u(-1.2, 1.2);
+    constexpr int kOrdinary = 23;
+    std::vector<double> ox(kOrdinary), oy(kOrdinary), oz(kOrdinary);
+    for (int i = 0; i < kOrdinary; ++i) ox[i] = u(rng), oy[i] = u(rng), oz[i] = u(rng);
+    for (const Special& special : c.special) {
+      const std::array<double, 3>& sp = special.at;
+      // The orbit is the special one meant: a pole, or a step from or to a point of norm 0.
+      const Orbit o = cls.orbit(sp[0], sp[1], sp[2]);
+      EXPECT_EQ(o.exit_step, special.exit_step);
+      EXPECT_EQ(o.field == -1e6f, special.pole) << "F " << o.field;
+      if (!special.pole)
+        EXPECT_TRUE(c.p.method == Method::kEscape
+                        ? norm2(cls.to_quaternion(sp[0], sp[1], sp[2])) == 0
+                        : norm2(o.last - cls.to_quaternion(sp[0], sp[1], sp[2])) == 0);
+      for (std::int64_t target : detail::kernel_dispatch_targets()) {
+        hwy::SetSupportedTargetsForTest(target);
+        SCOPED_TRACE(hwy::TargetName(target));
+        for (bool root : {false, true}) {
+          std::vector<double> alone(kOrdinary), special_alone(1);
+          detail::kernel_field(*k, ox.data(), oy.data(), oz.data(), kOrdinary, alone.data(), root);
+          detail::kernel_field(*k, &sp[0], &sp[1], &sp[2], 1, special_alone.data(), root);
+          for (int at = 0; at <= 8; ++at) {  // the special point at each lane of a vector
+            std::vector<double> x(ox), y(oy), z(oz);
+            x.insert(x.begin() + at, sp[0]);
+            y.insert(y.begin() + at, sp[1]);
+            z.insert(z.begin() + at, sp[2]);
+            std::vector<double> got(x.size());
+            detail::kernel_field(*k, x.data(), y.data(), z.data(), x.size(), got.data(), root);
+            for (int i = 0; i <= kOrdinary; ++i) {
+              const double want = i == at ? special_alone[0] : alone[i - (i > at)];
+              ASSERT_EQ(got[i], want)
+                  << (root ? "root" : "F") << " at " << i << ", special at " << at;
+            }
+          }
+        }
+      }
+      hwy::SetSupportedTargetsForTest(0);
+    }
+  }
 }
 
 TEST(Kernel, BatchesOfAnySizeGiveThePointwiseValues) {

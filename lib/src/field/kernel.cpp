@@ -645,12 +645,52 @@ HWY_INLINE V half_log_ratio(V m, double log_r) {
   return hn::IfThenElse(finite, hn::IfThenElse(positive, l, hn::Neg(inf)), inf);
 }
 
+// Whether every lane of a and b is a positive normal number (finite, not 0, not subnormal, not
+// NaN): where the metrics of a vector all are, F and the refinement values take none of the
+// special cases, and skip their tests (the same operations on the same values otherwise).
+HWY_INLINE bool all_positive_normal(V a, V b) {
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+  // Any of: NaN (quiet, signalling), +-0, +-inf, subnormal, negative.
+  return (_mm512_fpclass_pd_mask(a.raw, 0xFF) | _mm512_fpclass_pd_mask(b.raw, 0xFF)) == 0;
+#else
+  const D d;
+  const V lo = hn::Set(d, std::numeric_limits<double>::min());
+  const V hi = hn::Set(d, std::numeric_limits<double>::max());
+  return hn::AllTrue(
+      d, hn::And(hn::And(hn::Ge(a, lo), hn::Le(a, hi)), hn::And(hn::Ge(b, lo), hn::Le(b, hi))));
+#endif
+}
+
+// half_log_ratio() of a positive normal m.
+HWY_INLINE V half_log_ratio_normal(V m, double log_r) {
+  const D d;
+  return hn::Sub(hn::Mul(hn::Set(d, 0.5), log_normal(m)), hn::Set(d, log_r));
+}
+
 // F of decided orbits from their code (exit / convergence step, -1 never, -2 pole), metric a
 // and previous metric b: the formulas of the scalar classifier, lane by lane.
 HWY_INLINE V field_of(const KernelSetup& s, V k, V a, V b) {
   const D d;
   const V big = hn::Set(d, kFieldLimit), nbig = hn::Set(d, -kFieldLimit);
   const V iters = hn::Set(d, s.iterations), one = hn::Set(d, 1.0);
+  if (HWY_LIKELY(all_positive_normal(a, b))) {
+    // The formulas below where both metrics are positive normal numbers: both logarithms and
+    // the fraction's operands are finite (a sum of 0 gives NaN, clamped as below).
+    const V sa = half_log_ratio_normal(a, s.log_r), sb = half_log_ratio_normal(b, s.log_r);
+    V f;
+    if (s.escape) {
+      const V other = hn::IfThenElse(hn::Eq(k, hn::Zero(d)), one, hn::Neg(sb));
+      f = hn::Add(hn::Sub(iters, k), hn::Mul(sa, reciprocal_final(hn::Add(sa, other))));
+      f = hn::IfThenElse(hn::Lt(k, hn::Zero(d)), sa, f);
+    } else {
+      const V nt = hn::Neg(sa);
+      const V other = hn::IfThenElse(hn::Eq(k, one), one, sb);
+      f = hn::Add(hn::Sub(iters, k), hn::Mul(nt, reciprocal_final(hn::Add(nt, other))));
+      f = hn::IfThenElse(hn::Eq(k, hn::Set(d, -1.0)), nt, f);
+      f = hn::IfThenElse(hn::Eq(k, hn::Set(d, -2.0)), nbig, f);
+    }
+    return hn::IfThenElse(hn::IsNaN(f), big, hn::Min(big, hn::Max(nbig, f)));
+  }
   const V sa = half_log_ratio(a, s.log_r), sb = half_log_ratio(b, s.log_r);
   V f;
   if (s.escape) {
@@ -683,7 +723,9 @@ HWY_INLINE V root_of(const KernelSetup& s, V k, V a, V b) {
   // Decided at step k: the metric then (the first beyond the bailout, or below the cut-off,
   // so also the extreme so far); never decided: the extreme over the orbit.
   const auto never = hn::Eq(k, hn::Set(d, -1.0));
-  const V sa = half_log_ratio(hn::IfThenElse(never, b, a), s.log_r);
+  const V m = hn::IfThenElse(never, b, a);
+  const V sa = HWY_LIKELY(all_positive_normal(m, m)) ? half_log_ratio_normal(m, s.log_r)
+                                                     : half_log_ratio(m, s.log_r);
   V g = s.escape ? sa : hn::Neg(sa);
   if (!s.escape) g = hn::IfThenElse(hn::Eq(k, hn::Set(d, -2.0)), hn::Neg(big), g);
   return hn::IfThenElse(hn::IsNaN(g), big, hn::Min(big, hn::Max(hn::Neg(big), g)));
