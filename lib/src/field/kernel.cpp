@@ -236,6 +236,10 @@ HWY_INLINE Q single_op_step_masked(__mmask8 run, const Q& h, const Q& c, const Q
 HWY_INLINE V reciprocal_of_norm(V n) {
   const D d;
   const V r = reciprocal(n);
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+  // One test of the usual case: none of NaN, +-0, +-inf, subnormal, negative.
+  if (HWY_LIKELY(_mm512_fpclass_pd_mask(n.raw, 0xFF) == 0)) return r;
+#endif
   const auto normal = hn::And(hn::Ge(n, hn::Set(d, std::numeric_limits<double>::min())),
                               hn::Le(n, hn::Set(d, std::numeric_limits<double>::max())));
   if (HWY_LIKELY(hn::AllTrue(d, normal))) return r;
@@ -247,6 +251,20 @@ HWY_INLINE Q inv(const Q& a) {
   const V r = reciprocal_of_norm(norm2(a));
   return {hn::Mul(a.w, r), hn::Neg(hn::Mul(a.x, r)), hn::Neg(hn::Mul(a.y, r)),
           hn::Neg(hn::Mul(a.z, r))};
+}
+
+// mul(t, inv(b)) with inv(b)'s negations taken into the product's signs (a product with a
+// negated factor is the negated product, exactly): the same values.
+HWY_INLINE Q mul_by_inverse(const Q& t, const Q& b) {
+  const V r = reciprocal_of_norm(norm2(b));
+  // inv(b) = (iw, -nx, -ny, -nz).
+  const V iw = hn::Mul(b.w, r), nx = hn::Mul(b.x, r), ny = hn::Mul(b.y, r), nz = hn::Mul(b.z, r);
+  // mul()'s operations term by term: fma(p, -n, c) = fnma(p, n, c), fma(p, q, -c) = fms(p, q,
+  // c), and fma(-p, n, -c) = -fma(p, n, c) under rounding to nearest.
+  return {hn::MulAdd(t.z, nz, hn::MulAdd(t.y, ny, hn::MulAdd(t.x, nx, hn::Mul(t.w, iw)))),
+          hn::MulAdd(t.z, ny, hn::NegMulAdd(t.y, nz, hn::MulSub(t.x, iw, hn::Mul(t.w, nx)))),
+          hn::NegMulAdd(t.z, nx, hn::MulAdd(t.y, iw, hn::MulSub(t.x, nz, hn::Mul(t.w, ny)))),
+          hn::MulAdd(t.z, iw, hn::MulSub(t.y, nx, hn::MulAdd(t.x, ny, hn::Mul(t.w, nz))))};
 }
 
 #if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
@@ -301,7 +319,10 @@ struct SquareStep {
 
 // (s1 (s0 h^2) h + a) / (s2 h^2) with real s0, s1, s2 and a: Newton's map of a cubic, as the
 // formula compiler writes (2*h^3+1)/(3*h^2). The same operations as the program's, in its
-// order (a real factor of 1 multiplies exactly), so every lane computes what the sweeps do.
+// order, so every lane computes what the sweeps do; with kUnitS0 (s0 = 1, as in that formula)
+// the product by s0 is left out, and the inverse's negated components are negated in the
+// product that takes them: both exact, so the values are the same.
+template <bool kUnitS0>
 struct CubicOverSquareStep {
   static constexpr bool kUsesC = false;
   static constexpr std::size_t kGroup = kWide ? 3 : 2;
@@ -319,9 +340,9 @@ struct CubicOverSquareStep {
   template <bool kEscape>
   HWY_INLINE Q step(RunMask run, const Q& h, const Q&, V r2, V& metric, M& exit) const {
     const Q square = sqr(h);  // the program squares h twice, with the same result
-    Q top = scale(s1, mul(scale(s0, square), h));
+    Q top = scale(s1, mul(kUnitS0 ? square : scale(s0, square), h));
     top.w = hn::Add(top.w, a);
-    const Q q = mul(top, inv(scale(s2, square)));
+    const Q q = mul_by_inverse(top, scale(s2, square));
     metric = step_metric<kEscape>(q, h, r2, exit);
     return keep(run, q, idle());
   }
@@ -842,7 +863,10 @@ class Machine {
         run_square(x, y, z, n);
         break;
       case KernelLoop::kCubicOverSquare:
-        run_step<CubicOverSquareStep>(x, y, z, n);
+        if (s_->kops[0].scale == 1)
+          run_step<CubicOverSquareStep<true>>(x, y, z, n);
+        else
+          run_step<CubicOverSquareStep<false>>(x, y, z, n);
         break;
       case KernelLoop::kChain:
         run_step<ChainStep>(x, y, z, n);
