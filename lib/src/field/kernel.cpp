@@ -140,16 +140,17 @@ HWY_INLINE Q slice_point(V x, V y, V z, const Q& o, const Q& d0, const Q& d1, co
           comp(o.z, d0.z, d1.z, d2.z)};
 }
 
-// The metric of the step from h to q and whether the orbit leaves there: escape, |q|^2 > R^2
-// (NaN and inf leave too); cut-off, |q - h|^2 < r^2 (converged), or a pole or an overflow (a
-// large step that never converges).
-// The lanes whose step metric makes their orbit leave (the test step_metric() applies).
+// The lanes whose step metric makes their orbit leave: escape, |q|^2 > R^2 (NaN and inf leave
+// too); cut-off, |q - h|^2 < r^2 (converged), or a pole or an overflow (a large step that never
+// converges).
 template <bool kEscape>
 HWY_INLINE M leaves(V metric, V r2) {
   if (kEscape) return hn::Not(hn::Le(metric, r2));
   return hn::Or(hn::Not(hn::Ge(metric, r2)), hn::Not(hn::IsFinite(metric)));
 }
 
+// The metric of the step from h to q, |q|^2 (escape) or |q - h|^2 (cut-off), and whether the
+// orbit leaves there (leaves()).
 template <bool kEscape>
 HWY_INLINE V step_metric(const Q& q, const Q& h, V r2, M& exit) {
   const V metric = kEscape ? norm2(q) : norm2(sub(q, h));
