@@ -249,34 +249,39 @@ HWY_INLINE Q single_op_step_masked(__mmask8 run, const Q& h, const Q& c, const Q
 }
 #endif
 
+// The lanes of m that are not positive normal numbers: NaN, +-0, +-inf, subnormal or negative
+// (one vfpclasspd on AVX-512).
+HWY_INLINE M not_positive_normal(V m) {
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+  return M{_mm512_fpclass_pd_mask(m.raw, 0xFF)};
+#else
+  const D d;
+  return hn::Not(hn::And(hn::Ge(m, hn::Set(d, std::numeric_limits<double>::min())),
+                         hn::Le(m, hn::Set(d, std::numeric_limits<double>::max()))));
+#endif
+}
+
 // 1 / n for a squared norm n: the fast reciprocal where n is a normal number, a division
 // elsewhere (0, subnormal, inf), so poles and overflow come out as in the scalar path.
 HWY_INLINE V reciprocal_of_norm(V n) {
   const D d;
   const V r = reciprocal(n);
-#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
-  // One test of the usual case: none of NaN, +-0, +-inf, subnormal, negative.
-  if (HWY_LIKELY(_mm512_fpclass_pd_mask(n.raw, 0xFF) == 0)) return r;
-#endif
-  const auto normal = hn::And(hn::Ge(n, hn::Set(d, std::numeric_limits<double>::min())),
-                              hn::Le(n, hn::Set(d, std::numeric_limits<double>::max())));
-  if (HWY_LIKELY(hn::AllTrue(d, normal))) return r;
-  return hn::IfThenElse(normal, r, hn::Div(hn::Set(d, 1.0), n));
+  const M special = not_positive_normal(n);
+  if (HWY_LIKELY(hn::AllFalse(d, special))) return r;
+  return hn::IfThenElse(special, hn::Div(hn::Set(d, 1.0), n), r);
 }
 
 // conj(a) / |a|^2; a zero quaternion gives non-finite components, as in the scalar path.
 HWY_INLINE Q inv(const Q& a) {
-  const V r = reciprocal_of_norm(norm2(a));
-  return {hn::Mul(a.w, r), hn::Neg(hn::Mul(a.x, r)), hn::Neg(hn::Mul(a.y, r)),
-          hn::Neg(hn::Mul(a.z, r))};
+  const Q n = scale(reciprocal_of_norm(norm2(a)), a);
+  return {n.w, hn::Neg(n.x), hn::Neg(n.y), hn::Neg(n.z)};
 }
 
 // mul(t, inv(b)) with inv(b)'s negations taken into the product's signs (a product with a
 // negated factor is the negated product, exactly): the same values.
 HWY_INLINE Q mul_by_inverse(const Q& t, const Q& b) {
-  const V r = reciprocal_of_norm(norm2(b));
-  // inv(b) = (iw, -nx, -ny, -nz).
-  const V iw = hn::Mul(b.w, r), nx = hn::Mul(b.x, r), ny = hn::Mul(b.y, r), nz = hn::Mul(b.z, r);
+  const Q n = scale(reciprocal_of_norm(norm2(b)), b);  // inv(b) = (iw, -nx, -ny, -nz)
+  const V iw = n.w, nx = n.x, ny = n.y, nz = n.z;
   // mul()'s operations term by term: fma(p, -n, c) = fnma(p, n, c), fma(p, q, -c) = fms(p, q,
   // c), and fma(-p, n, -c) = -fma(p, n, c) under rounding to nearest.
   return {hn::MulAdd(t.z, nz, hn::MulAdd(t.y, ny, hn::MulAdd(t.x, nx, hn::Mul(t.w, iw)))),
@@ -596,23 +601,6 @@ HWY_INLINE std::size_t compress_store(V v, M m, double* p) {
   return hn::CountTrue(d, m);
 }
 
-// 1 / x to full double precision without a division: the 14-bit reciprocal estimate and two
-// Newton steps (vdivpd is slow; F needs a few reciprocals per point).
-HWY_INLINE V reciprocal(V x) {
-  const D d;
-#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
-  const V one = hn::Set(d, 1.0);
-  V r{_mm512_rcp14_pd(x.raw)};
-  r = hn::MulAdd(r, hn::NegMulAdd(x, r, one), r);
-  r = hn::MulAdd(r, hn::NegMulAdd(x, r, one), r);
-  // A third step makes it correctly rounded nearly always; infinities and zeros pass through
-  // the estimate unchanged in the cases F meets (1/inf = 0 is masked by the callers).
-  return hn::MulAdd(r, hn::NegMulAdd(x, r, one), r);
-#else
-  return hn::Div(hn::Set(d, 1.0), x);
-#endif
-}
-
 // 1 / x within an ulp or so: the estimate and two Newton steps, for the last operations of F
 // (its logarithms and its fraction), whose rounding no later step amplifies; the orbits' own
 // inverses take reciprocal(), whose third step rounds as the scalar path's division does.
@@ -623,15 +611,32 @@ HWY_INLINE V reciprocal_final(V x) {
   r = hn::MulAdd(r, hn::NegMulAdd(x, r, one), r);
   return hn::MulAdd(r, hn::NegMulAdd(x, r, one), r);
 #else
-  return reciprocal(x);
+  return hn::Div(hn::Set(D(), 1.0), x);
 #endif
 }
 
-// a / (a + b) for a > 0, b >= 0, either possibly infinite (the fractional part of F).
+// 1 / x to full double precision without a division: the 14-bit reciprocal estimate and
+// three Newton steps (vdivpd is slow; the orbits' inverses need one a step).
+HWY_INLINE V reciprocal(V x) {
+  const D d;
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+  // The third step makes it correctly rounded nearly always; infinities and zeros pass through
+  // the estimate unchanged in the cases F meets (1/inf = 0 is masked by the callers).
+  const V r = reciprocal_final(x);
+  return hn::MulAdd(r, hn::NegMulAdd(x, r, hn::Set(d, 1.0)), r);
+#else
+  return hn::Div(hn::Set(d, 1.0), x);
+#endif
+}
+
+// a / (a + b) for a > 0, b >= 0, either possibly infinite (the fractional part of F); without
+// kSpecial, for finite a and b.
+template <bool kSpecial>
 HWY_INLINE V frac(V a, V b) {
   const D d;
-  const auto ia = hn::IsInf(a), ib = hn::IsInf(b);
   V r = hn::Mul(a, reciprocal_final(hn::Add(a, b)));
+  if (!kSpecial) return r;
+  const auto ia = hn::IsInf(a), ib = hn::IsInf(b);
   r = hn::IfThenElse(ib, hn::Zero(d), r);
   return hn::IfThenElse(ia, hn::IfThenElse(ib, hn::Set(d, 0.5), hn::Set(d, 1.0)), r);
 }
@@ -695,9 +700,13 @@ HWY_INLINE V log_normal(V x) {
 #endif
 }
 
-// log(sqrt(m) / R) = 0.5 log m - log R; +inf for non-finite m, -inf for m = 0.
+// log(sqrt(m) / R) = 0.5 log m - log R; +inf for non-finite m, -inf for m = 0. Without
+// kSpecial, for positive normal m.
+template <bool kSpecial>
 HWY_INLINE V half_log_ratio(V m, double log_r) {
   const D d;
+  const V half = hn::Set(d, 0.5), lr = hn::Set(d, log_r);
+  if (!kSpecial) return hn::Sub(hn::Mul(half, log_normal(m)), lr);
   const V inf = hn::Set(d, std::numeric_limits<double>::infinity());
   const auto finite = hn::IsFinite(m);
   const auto positive = hn::Gt(m, hn::Zero(d));
@@ -706,76 +715,47 @@ HWY_INLINE V half_log_ratio(V m, double log_r) {
   V l = log_normal(safe);
   if (HWY_UNLIKELY(!hn::AllTrue(d, hn::Or(normal, hn::Not(positive)))))
     l = hn::IfThenElse(normal, l, hn::Log(d, hn::IfThenElse(positive, m, hn::Set(d, 1.0))));
-  l = hn::Sub(hn::Mul(hn::Set(d, 0.5), l), hn::Set(d, log_r));
+  l = hn::Sub(hn::Mul(half, l), lr);
   return hn::IfThenElse(finite, hn::IfThenElse(positive, l, hn::Neg(inf)), inf);
 }
 
-// Whether every lane of a and b is a positive normal number (finite, not 0, not subnormal, not
-// NaN): where the metrics of a vector all are, F and the refinement values take none of the
-// special cases, and skip their tests (the same operations on the same values otherwise).
-HWY_INLINE bool all_positive_normal(V a, V b) {
-#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
-  // Any of: NaN (quiet, signalling), +-0, +-inf, subnormal, negative.
-  return (_mm512_fpclass_pd_mask(a.raw, 0xFF) | _mm512_fpclass_pd_mask(b.raw, 0xFF)) == 0;
-#else
-  const D d;
-  const V lo = hn::Set(d, std::numeric_limits<double>::min());
-  const V hi = hn::Set(d, std::numeric_limits<double>::max());
-  return hn::AllTrue(
-      d, hn::And(hn::And(hn::Ge(a, lo), hn::Le(a, hi)), hn::And(hn::Ge(b, lo), hn::Le(b, hi))));
-#endif
-}
-
-// half_log_ratio() of a positive normal m.
-HWY_INLINE V half_log_ratio_normal(V m, double log_r) {
-  const D d;
-  return hn::Sub(hn::Mul(hn::Set(d, 0.5), log_normal(m)), hn::Set(d, log_r));
-}
-
 // F of decided orbits from their code (exit / convergence step, -1 never, -2 pole), metric a
-// and previous metric b: the formulas of the scalar classifier, lane by lane.
-HWY_INLINE V field_of(const KernelSetup& s, V k, V a, V b) {
+// and previous metric b: the formulas of the scalar classifier, lane by lane. Without kSpecial,
+// for a vector whose metrics are all positive normal numbers, where none of the special cases'
+// tests can apply (the same operations on the same values otherwise).
+template <bool kSpecial>
+HWY_INLINE V field_formula(const KernelSetup& s, V k, V a, V b) {
   const D d;
   const V big = hn::Set(d, kFieldLimit), nbig = hn::Set(d, -kFieldLimit);
   const V iters = hn::Set(d, s.iterations), one = hn::Set(d, 1.0);
-  if (HWY_LIKELY(all_positive_normal(a, b))) {
-    // The formulas below where both metrics are positive normal numbers: both logarithms and
-    // the fraction's operands are finite (a sum of 0 gives NaN, clamped as below).
-    const V sa = half_log_ratio_normal(a, s.log_r), sb = half_log_ratio_normal(b, s.log_r);
-    V f;
-    if (s.escape) {
-      const V other = hn::IfThenElse(hn::Eq(k, hn::Zero(d)), one, hn::Neg(sb));
-      f = hn::Add(hn::Sub(iters, k), hn::Mul(sa, reciprocal_final(hn::Add(sa, other))));
-      f = hn::IfThenElse(hn::Lt(k, hn::Zero(d)), sa, f);
-    } else {
-      const V nt = hn::Neg(sa);
-      const V other = hn::IfThenElse(hn::Eq(k, one), one, sb);
-      f = hn::Add(hn::Sub(iters, k), hn::Mul(nt, reciprocal_final(hn::Add(nt, other))));
-      f = hn::IfThenElse(hn::Eq(k, hn::Set(d, -1.0)), nt, f);
-      f = hn::IfThenElse(hn::Eq(k, hn::Set(d, -2.0)), nbig, f);
-    }
-    return hn::IfThenElse(hn::IsNaN(f), big, hn::Min(big, hn::Max(nbig, f)));
-  }
-  const V sa = half_log_ratio(a, s.log_r), sb = half_log_ratio(b, s.log_r);
+  const V sa = half_log_ratio<kSpecial>(a, s.log_r), sb = half_log_ratio<kSpecial>(b, s.log_r);
   V f;
   if (s.escape) {
     // step 0: N + frac(s, 1); step n: (N - n) + frac(s_n, -s_(n-1)) with s_(n-1) taken as -1
     // when h_(n-1) = 0; never: s_N.
     // (One frac for both: N - 0 is N exactly.)
-    const V sprev = hn::IfThenElse(hn::Gt(b, hn::Zero(d)), sb, hn::Set(d, -1.0));
+    const V sprev = kSpecial ? hn::IfThenElse(hn::Gt(b, hn::Zero(d)), sb, hn::Set(d, -1.0)) : sb;
     const V other = hn::IfThenElse(hn::Eq(k, hn::Zero(d)), one, hn::Neg(sprev));
-    f = hn::Add(hn::Sub(iters, k), frac(sa, other));
+    f = hn::Add(hn::Sub(iters, k), frac<kSpecial>(sa, other));
     f = hn::IfThenElse(hn::Lt(k, hn::Zero(d)), sa, f);
   } else {
     // step 1: (N - 1) + frac(-t, 1); step n: (N - n) + frac(-t_n, t_(n-1)); never: -t_N;
     // pole: -limit.
     // (One frac for both: N - k is N - 1 at step 1.)
     const V nt = hn::Neg(sa);
-    f = hn::Add(hn::Sub(iters, k), frac(nt, hn::IfThenElse(hn::Eq(k, one), one, sb)));
+    f = hn::Add(hn::Sub(iters, k), frac<kSpecial>(nt, hn::IfThenElse(hn::Eq(k, one), one, sb)));
     f = hn::IfThenElse(hn::Eq(k, hn::Set(d, -1.0)), nt, f);
     f = hn::IfThenElse(hn::Eq(k, hn::Set(d, -2.0)), nbig, f);
   }
+  // (Without kSpecial a sum of 0 in the fraction still gives NaN, clamped here.)
   return hn::IfThenElse(hn::IsNaN(f), big, hn::Min(big, hn::Max(nbig, f)));
+}
+
+// field_formula(), the short way where it can.
+HWY_INLINE V field_of(const KernelSetup& s, V k, V a, V b) {
+  if (HWY_LIKELY(hn::AllFalse(D(), hn::Or(not_positive_normal(a), not_positive_normal(b)))))
+    return field_formula<false>(s, k, a, b);
+  return field_formula<true>(s, k, a, b);
 }
 
 // The value refinement finds the boundary with: max_k s_k (escape) or -min_k t_k (cut-off) over
@@ -789,8 +769,9 @@ HWY_INLINE V root_of(const KernelSetup& s, V k, V a, V b) {
   // so also the extreme so far); never decided: the extreme over the orbit.
   const auto never = hn::Eq(k, hn::Set(d, -1.0));
   const V m = hn::IfThenElse(never, b, a);
-  const V sa = HWY_LIKELY(all_positive_normal(m, m)) ? half_log_ratio_normal(m, s.log_r)
-                                                     : half_log_ratio(m, s.log_r);
+  const V sa = HWY_LIKELY(hn::AllFalse(d, not_positive_normal(m)))
+                   ? half_log_ratio<false>(m, s.log_r)
+                   : half_log_ratio<true>(m, s.log_r);
   V g = s.escape ? sa : hn::Neg(sa);
   if (!s.escape) g = hn::IfThenElse(hn::Eq(k, hn::Set(d, -2.0)), hn::Neg(big), g);
   return hn::IfThenElse(hn::IsNaN(g), big, hn::Min(big, hn::Max(hn::Neg(big), g)));
