@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <malloc.h>
+#include <sys/prctl.h>
 #include <unistd.h>
 
 #include <cctype>
@@ -9,6 +10,8 @@
 #include <cstring>
 #include <thread>
 #include <utility>
+
+#include "qjulia/base/memory.h"
 
 namespace qjulia::cli {
 namespace {
@@ -31,10 +34,8 @@ const char* thp_mode() {
   return "";
 }
 
-bool opted_out() {
-  const char* v = std::getenv("QJULIA_HUGE_PAGES");
-  return v && std::strcmp(v, "0") == 0;
-}
+/// Whether huge pages do not pay here, or the user said no (qjulia/base/memory.h).
+bool opted_out() { return !huge_page_choice().on; }
 
 bool tunable_set() {
   const char* t = std::getenv("GLIBC_TUNABLES");
@@ -98,20 +99,28 @@ std::string malloc_thresholds_state() {
 
 std::string malloc_huge_pages_state() {
   const std::string mode = thp_mode();
-  if (mode == "always") return "on (the kernel's mode is always)";
   if (mode.empty()) return "off (the kernel offers no transparent huge pages)";
   if (mode == "never") return "off (the kernel's mode is never)";
+  const HugePageChoice choice = huge_page_choice();
+  if (mode == "always")
+    return choice.on ? "on (the kernel's mode is always)"
+                     : std::string("off (") + choice.why + "; the process opted out)";
   const char* t = std::getenv("GLIBC_TUNABLES");
   if (t && std::strstr(t, "glibc.malloc.hugetlb=1"))
     return "on (GLIBC_TUNABLES glibc.malloc.hugetlb=1)";
   if (tunable_set()) return "off (GLIBC_TUNABLES sets glibc.malloc.hugetlb otherwise)";
-  if (opted_out()) return "off (QJULIA_HUGE_PAGES=0)";
+  if (!choice.on) return std::string("off (") + choice.why + ")";
   return "off";
 }
 
 void restart_with_malloc_huge_pages(char** argv) {
   // Plain libc only: this runs before the C++ runtime and the libraries are initialised.
-  if (opted_out() || tunable_set() || std::strcmp(thp_mode(), "madvise") != 0) return;
+  if (opted_out()) {
+    // Under the kernel's mode `always` the heap would get huge pages unasked.
+    if (std::strcmp(thp_mode(), "always") == 0) prctl(PR_SET_THP_DISABLE, 1, 0, 0, 0);
+    return;
+  }
+  if (tunable_set() || std::strcmp(thp_mode(), "madvise") != 0) return;
   const char* old = std::getenv("GLIBC_TUNABLES");
   char saved[4096];
   if (old && std::strlen(old) + std::strlen(kTunable) + 3 > sizeof saved) return;

@@ -12,12 +12,14 @@ namespace qjulia::cli {
 std::string malloc_huge_pages_state();
 
 /// When the kernel gives transparent huge pages only to memory that asks for them (mode
-/// `madvise`), and neither GLIBC_TUNABLES nor QJULIA_HUGE_PAGES=0 has decided otherwise, runs
-/// this program again (same pid, arguments and environment, plus the tunable) so that malloc asks
-/// for them: on a virtual machine a page fault costs several microseconds, and a run touches
-/// every page of its memory once. Returns (and the run goes on as it is) when it does nothing or
-/// the restart fails. Uses only the C library, so that it can run before the libraries'
-/// initialisers (see `restart_early`).
+/// `madvise`), they pay here (`huge_page_choice()`, qjulia/base/memory.h: QJULIA_HUGE_PAGES and
+/// the machine's free page reporting) and GLIBC_TUNABLES has not decided otherwise, runs this
+/// program again (same pid, arguments and environment, plus the tunable) so that malloc asks for
+/// them: on a virtual machine a page fault costs several microseconds, and a run touches every
+/// page of its memory once. When they do not pay and the kernel's mode is `always`, turns them
+/// off for this process (`PR_SET_THP_DISABLE`). Returns (and the run goes on as it is) when it
+/// does nothing or the restart fails. Uses only the C library, so that it can run before the
+/// libraries' initialisers (see `restart_early`).
 void restart_with_malloc_huge_pages(char** argv);
 
 /// `restart_with_malloc_huge_pages` for the commands that do real work (`mesh`, `compare`,

@@ -10,6 +10,8 @@
 #include <type_traits>
 #include <vector>
 
+#include "qjulia/base/memory.h"
+
 namespace qjulia::detail {
 
 /// Resizes `v` to `n` value-initialised elements, its new storage's pages touched in parallel.
@@ -26,11 +28,14 @@ void resize_first_touched(std::vector<T>& v, std::size_t n) {
   char* const from = reinterpret_cast<char*>(v.data() + v.size());
   const std::size_t bytes = (n - v.size()) * sizeof(T);
   constexpr std::size_t kBlock = std::size_t{1} << 21;
-  // Huge pages where the kernel offers them on request: one fault per 2 MiB instead of 512.
+  // Huge pages where the kernel offers them on request and they pay (huge_page_choice()): one
+  // fault per 2 MiB instead of 512.
   const std::uintptr_t first =
       (reinterpret_cast<std::uintptr_t>(from) + kBlock - 1) & ~(kBlock - 1);
   const std::uintptr_t last = (reinterpret_cast<std::uintptr_t>(from) + bytes) & ~(kBlock - 1);
-  if (last > first) ::madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE);
+  if (last > first)
+    ::madvise(reinterpret_cast<void*>(first), last - first,
+              huge_page_choice().on ? MADV_HUGEPAGE : MADV_NOHUGEPAGE);
   if (bytes >= 2 * kBlock)
     tbb::parallel_for(std::size_t{0}, (bytes + kBlock - 1) / kBlock, [&](std::size_t b) {
       std::memset(from + b * kBlock, 0, std::min(kBlock, bytes - b * kBlock));

@@ -1,12 +1,16 @@
 #include "qjulia/base/memory.h"
 
+#include <fcntl.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <sstream>
@@ -197,6 +201,50 @@ std::size_t current_rss_bytes() {
   unsigned long long pages_total = 0, pages_resident = 0;
   if (!(in >> pages_total >> pages_resident)) return 0;
   return static_cast<std::size_t>(pages_resident) * static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+}
+
+namespace {
+
+// The order of the free blocks this machine reports to its host, or -1 when it reports none
+// (the kernel's parameter reads as an unsigned -1 until a driver registers).
+int page_reporting_order() noexcept {
+  const int fd =
+      open("/sys/module/page_reporting/parameters/page_reporting_order", O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return -1;
+  char text[32];
+  const ssize_t n = read(fd, text, sizeof text - 1);
+  close(fd);
+  if (n <= 0) return -1;
+  text[n] = '\0';
+  char* end = nullptr;
+  const long order = std::strtol(text, &end, 10);
+  return end != text && order >= 0 && order < 64 ? static_cast<int>(order) : -1;
+}
+
+HugePageChoice decide_huge_pages() noexcept {
+  if (const char* v = std::getenv("QJULIA_HUGE_PAGES")) {
+    if (std::strcmp(v, "0") == 0) return {false, "QJULIA_HUGE_PAGES=0"};
+    if (std::strcmp(v, "1") == 0) return {true, "QJULIA_HUGE_PAGES=1"};
+  }
+  // A huge page is an order-9 block (2 MiB of 4 KiB pages).
+  const int order = page_reporting_order();
+  if (order >= 0 && order <= 9)
+    return {false,
+            "the machine hands free 2 MiB blocks back to its host, page_reporting_order <= 9"};
+  return {};
+}
+
+}  // namespace
+
+HugePageChoice huge_page_choice() noexcept {
+  // 0 undecided, 1 on, 2 off; the reason is one of decide_huge_pages()'s static texts.
+  static std::atomic<int> state{0};
+  static std::atomic<const char*> why{""};
+  if (const int s = state.load(std::memory_order_acquire)) return {s == 1, why.load()};
+  const HugePageChoice c = decide_huge_pages();
+  why.store(c.why);
+  state.store(c.on ? 1 : 2, std::memory_order_release);
+  return c;
 }
 
 }  // namespace qjulia

@@ -9,6 +9,8 @@
 #include <new>
 #include <vector>
 
+#include "qjulia/base/memory.h"
+
 // Under AddressSanitizer a free block is poisoned, so that a brick used after it was freed is
 // still caught.
 #if defined(__SANITIZE_ADDRESS__)
@@ -26,7 +28,7 @@ namespace {
 constexpr std::size_t kAlign = 64;
 constexpr std::size_t kClasses = kPoolLargest / kAlign;
 // A slab is one huge page: mapped on its own, aligned to its size, so the kernel can back it
-// with one huge page, and unmapped whole.
+// with one huge page where this process asks for them, and unmapped whole.
 constexpr std::size_t kSlab = std::size_t{2} << 20;
 static_assert(kSlab % kAlign == 0 && kSlab >= kPoolLargest + kAlign);
 // Threads take stripes in turn; more threads than stripes share them.
@@ -41,7 +43,9 @@ void* map_slab() {
   if (at > first) munmap(p, at - first);
   if (at + kSlab < first + 2 * kSlab)
     munmap(reinterpret_cast<void*>(at + kSlab), first + 2 * kSlab - (at + kSlab));
-  madvise(reinterpret_cast<void*>(at), kSlab, MADV_HUGEPAGE);  // a hint: may be refused
+  // A hint either way (see huge_page_choice()): the kernel may refuse it.
+  madvise(reinterpret_cast<void*>(at), kSlab,
+          huge_page_choice().on ? MADV_HUGEPAGE : MADV_NOHUGEPAGE);
   return reinterpret_cast<void*>(at);
 }
 

@@ -6,12 +6,12 @@
 /// that once the bricks go the heap is full of holes of a few KB that the mesh's arrays cannot
 /// use: those take fresh pages, which cost far more than writing them (the kernel clears them,
 /// about 2 ms a MB on the project's virtual machine for pages long free), and handing the holes
-/// back (malloc_trim) takes one madvise each. From the pool they come from slabs of one huge
-/// page each, mapped on their own; each thread takes blocks from its own stripe of slabs under
-/// its own lock, each size's freed blocks are reused, and during the extraction (pool_drain())
-/// each slab is unmapped as soon as its last brick goes. The mesh's arrays, made meanwhile, get
-/// those pages from the kernel: pages in use a moment before, which it clears at the speed of
-/// memory.
+/// back (malloc_trim) takes one madvise each. From the pool they come from slabs of 2 MiB
+/// each (one huge page where the process asks for them, huge_page_choice()), mapped on their own;
+/// each thread takes blocks from its own stripe of slabs under its own lock, each size's freed
+/// blocks are reused, and during the extraction (pool_drain()) each slab is unmapped as soon as its
+/// last brick goes. The mesh's arrays, made meanwhile, get those pages from the kernel: pages in
+/// use a moment before, which it clears at the speed of memory.
 #include <cstddef>
 
 namespace qjulia::detail {

@@ -39,4 +39,19 @@ std::size_t peak_rss_bytes();
 /// Resident set size of this process now, bytes (0 when unknown).
 std::size_t current_rss_bytes();
 
+/// Whether this process asks the kernel for transparent huge pages (2 MiB) for its large
+/// memory (malloc's heap in the commands, the brick pool's slabs, the mesh's large arrays), and
+/// why. `QJULIA_HUGE_PAGES=0` or `=1` decides when set. Otherwise yes, unless the machine hands
+/// free blocks of 2 MiB back to its host (free page reporting at order 9 or below,
+/// `/sys/module/page_reporting/parameters/page_reporting_order`): then every huge page comes
+/// from a block the host has taken back and must back again, which costs several times what
+/// 4 KiB pages from the smaller free blocks cost (on the project machine 3.2 against 0.42 ms a
+/// MB). Decided once a process; plain C library calls only, so that a command can ask before the
+/// C++ runtime is initialised.
+struct HugePageChoice {
+  bool on = true;
+  const char* why = "";  ///< static text: the setting or the machine's reason; "" by default
+};
+HugePageChoice huge_page_choice() noexcept;
+
 }  // namespace qjulia
