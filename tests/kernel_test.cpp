@@ -798,10 +798,11 @@ TEST(Kernel, VectorsMixingSpecialAndOrdinaryOrbitsGiveEachOrbitItsOwnValue) {
       const Orbit o = cls.orbit(sp[0], sp[1], sp[2]);
       EXPECT_EQ(o.exit_step, special.exit_step);
       EXPECT_EQ(o.field == -1e6f, special.pole) << "F " << o.field;
-      if (!special.pole)
+      if (!special.pole) {
         EXPECT_TRUE(c.p.method == Method::kEscape
                         ? norm2(cls.to_quaternion(sp[0], sp[1], sp[2])) == 0
                         : norm2(o.last - cls.to_quaternion(sp[0], sp[1], sp[2])) == 0);
+      }
       for (std::int64_t target : detail::kernel_dispatch_targets()) {
         hwy::SetSupportedTargetsForTest(target);
         SCOPED_TRACE(hwy::TargetName(target));
