@@ -205,8 +205,9 @@ std::size_t current_rss_bytes() {
 
 namespace {
 
-// The order of the free blocks this machine reports to its host, or -1 when it reports none
-// (the kernel's parameter reads as an unsigned -1 until a driver registers).
+// The order of the free blocks this machine reports to its host, or -1 when it cannot say (no
+// such parameter, or a value out of range). Until a driver registers, recent kernels show an
+// unsigned -1 there and older ones their largest order, both above 9.
 int page_reporting_order() noexcept {
   const int fd =
       open("/sys/module/page_reporting/parameters/page_reporting_order", O_RDONLY | O_CLOEXEC);
