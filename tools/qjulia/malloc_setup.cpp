@@ -34,9 +34,6 @@ const char* thp_mode() {
   return "";
 }
 
-/// Whether huge pages do not pay here, or the user said no (qjulia/base/memory.h).
-bool opted_out() { return !huge_page_choice().on; }
-
 bool tunable_set() {
   const char* t = std::getenv("GLIBC_TUNABLES");
   return t && std::strstr(t, kTunable);
@@ -115,7 +112,7 @@ std::string malloc_huge_pages_state() {
 
 void restart_with_malloc_huge_pages(char** argv) {
   // Plain libc only: this runs before the C++ runtime and the libraries are initialised.
-  if (opted_out()) {
+  if (!huge_page_choice().on) {  // they do not pay here, or the user said no
     // Under the kernel's mode `always` the heap would get huge pages unasked.
     if (std::strcmp(thp_mode(), "always") == 0) prctl(PR_SET_THP_DISABLE, 1, 0, 0, 0);
     return;

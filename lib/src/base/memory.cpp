@@ -222,30 +222,35 @@ int page_reporting_order() noexcept {
   return end != text && order >= 0 && order < 64 ? static_cast<int>(order) : -1;
 }
 
-HugePageChoice decide_huge_pages() noexcept {
+// The choices there are, and which applies: QJULIA_HUGE_PAGES's, or the machine's.
+constexpr HugePageChoice kChoices[] = {
+    {true, ""},
+    {false, "QJULIA_HUGE_PAGES=0"},
+    {true, "QJULIA_HUGE_PAGES=1"},
+    {false, "the machine hands free 2 MiB blocks back to its host, page_reporting_order <= 9"}};
+
+// Which of kChoices applies (its index).
+int decide_huge_pages() noexcept {
   if (const char* v = std::getenv("QJULIA_HUGE_PAGES")) {
-    if (std::strcmp(v, "0") == 0) return {false, "QJULIA_HUGE_PAGES=0"};
-    if (std::strcmp(v, "1") == 0) return {true, "QJULIA_HUGE_PAGES=1"};
+    if (std::strcmp(v, "0") == 0) return 1;
+    if (std::strcmp(v, "1") == 0) return 2;
   }
   // A huge page is an order-9 block (2 MiB of 4 KiB pages).
   const int order = page_reporting_order();
-  if (order >= 0 && order <= 9)
-    return {false,
-            "the machine hands free 2 MiB blocks back to its host, page_reporting_order <= 9"};
-  return {};
+  return order >= 0 && order <= 9 ? 3 : 0;
 }
 
 }  // namespace
 
 HugePageChoice huge_page_choice() noexcept {
-  // 0 undecided, 1 on, 2 off; the reason is one of decide_huge_pages()'s static texts.
-  static std::atomic<int> state{0};
-  static std::atomic<const char*> why{""};
-  if (const int s = state.load(std::memory_order_acquire)) return {s == 1, why.load()};
-  const HugePageChoice c = decide_huge_pages();
-  why.store(c.why);
-  state.store(c.on ? 1 : 2, std::memory_order_release);
-  return c;
+  // The index of the choice + 1; 0 while undecided (two threads deciding at once agree).
+  static std::atomic<int> decided{0};
+  int i = decided.load(std::memory_order_relaxed);
+  if (i == 0) {
+    i = decide_huge_pages() + 1;
+    decided.store(i, std::memory_order_relaxed);
+  }
+  return kChoices[i - 1];
 }
 
 }  // namespace qjulia
