@@ -66,6 +66,20 @@ TEST(BrickPool, ServesFromSlabsReusesFreedBlocksAndHandsEverySlabBackWithTheLast
   EXPECT_EQ(pool_usage().blocks, 0u);
 }
 
+TEST(BrickPool, AFreshSlabsPagesAreAllPresentWhenItsFirstBlockIsServed) {
+  void* b = pool_allocate(700);
+  // The slab is aligned to its 2 MiB; its pages came in one call, not a fault each.
+  void* slab = reinterpret_cast<void*>(reinterpret_cast<std::uintptr_t>(b) &
+                                       ~((std::uintptr_t{2} << 20) - 1));
+  std::vector<unsigned char> resident((std::size_t{2} << 20) / 4096);
+  ASSERT_EQ(mincore(slab, std::size_t{2} << 20, resident.data()), 0);
+  std::size_t present = 0;
+  for (unsigned char c : resident) present += c & 1;
+  EXPECT_EQ(present, resident.size());
+  pool_free(b, 700);
+  EXPECT_EQ(pool_usage().slabs, 0u);
+}
+
 TEST(BrickPool, ThreadsGetBlocksThatNeverOverlap) {
   std::vector<std::thread> threads;
   std::vector<int> bad(4, 0);

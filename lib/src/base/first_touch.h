@@ -1,8 +1,7 @@
 #pragma once
-// Large vectors whose pages are first touched by all threads: a fresh page costs far more than
-// writing it (the kernel clears it, and a virtual machine's host may have to back it), and a
-// vector's own resize() touches them all on one thread.
-#include <sys/mman.h>
+// Large vectors whose pages are asked for by all threads, a block at a time: a fresh page costs
+// far more than writing it (base/pages.h), and a vector's own resize() faults them in one at a
+// time on one thread.
 #include <tbb/parallel_for.h>
 
 #include <cstdint>
@@ -10,11 +9,12 @@
 #include <type_traits>
 #include <vector>
 
-#include "qjulia/base/memory.h"
+#include "base/pages.h"
 
 namespace qjulia::detail {
 
-/// Resizes `v` to `n` value-initialised elements, its new storage's pages touched in parallel.
+/// Resizes `v` to `n` value-initialised elements, its new storage's pages made present in
+/// parallel first.
 template <class T>
 void resize_first_touched(std::vector<T>& v, std::size_t n) {
   static_assert(std::is_trivially_copyable_v<T> && std::is_trivially_default_constructible_v<T>);
@@ -33,13 +33,15 @@ void resize_first_touched(std::vector<T>& v, std::size_t n) {
   const std::uintptr_t first =
       (reinterpret_cast<std::uintptr_t>(from) + kBlock - 1) & ~(kBlock - 1);
   const std::uintptr_t last = (reinterpret_cast<std::uintptr_t>(from) + bytes) & ~(kBlock - 1);
-  if (last > first)
-    ::madvise(reinterpret_cast<void*>(first), last - first,
-              huge_page_choice().on ? MADV_HUGEPAGE : MADV_NOHUGEPAGE);
+  if (last > first) advise_huge_pages(reinterpret_cast<void*>(first), last - first);
+  // The pages asked for a block at a time (written where the kernel cannot), in parallel.
   if (bytes >= 2 * kBlock)
     tbb::parallel_for(std::size_t{0}, (bytes + kBlock - 1) / kBlock, [&](std::size_t b) {
-      std::memset(from + b * kBlock, 0, std::min(kBlock, bytes - b * kBlock));
+      const std::size_t size = std::min(kBlock, bytes - b * kBlock);
+      if (!populate_pages(from + b * kBlock, size)) std::memset(from + b * kBlock, 0, size);
     });
+  else
+    populate_pages(from, bytes);
   v.resize(n);
 }
 

@@ -1,6 +1,7 @@
 #include "qjulia/base/memory.h"
 
 #include <fcntl.h>
+#include <sys/mman.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -15,6 +16,7 @@
 #include <limits>
 #include <sstream>
 
+#include "base/pages.h"
 #include "base/threads.h"
 #include "qjulia/base/error.h"
 
@@ -252,5 +254,25 @@ HugePageChoice huge_page_choice() noexcept {
   }
   return kChoices[i - 1];
 }
+
+namespace detail {
+
+void advise_huge_pages(void* p, std::size_t bytes) noexcept {
+  madvise(p, bytes, huge_page_choice().on ? MADV_HUGEPAGE : MADV_NOHUGEPAGE);
+}
+
+bool populate_pages(void* p, std::size_t bytes) noexcept {
+#ifndef MADV_POPULATE_WRITE
+  constexpr int MADV_POPULATE_WRITE = 23;  // Linux 5.14; older headers lack the name
+#endif
+  if (bytes == 0) return true;
+  // The whole pages that hold the range: a page partly in use keeps its contents.
+  const auto page = static_cast<std::uintptr_t>(sysconf(_SC_PAGESIZE));
+  const auto first = reinterpret_cast<std::uintptr_t>(p) & ~(page - 1);
+  const auto end = reinterpret_cast<std::uintptr_t>(p) + bytes;
+  return madvise(reinterpret_cast<void*>(first), end - first, MADV_POPULATE_WRITE) == 0;
+}
+
+}  // namespace detail
 
 }  // namespace qjulia

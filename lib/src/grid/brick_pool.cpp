@@ -9,7 +9,7 @@
 #include <new>
 #include <vector>
 
-#include "qjulia/base/memory.h"
+#include "base/pages.h"
 
 // Under AddressSanitizer a free block is poisoned, so that a brick used after it was freed is
 // still caught.
@@ -43,9 +43,10 @@ void* map_slab() {
   if (at > first) munmap(p, at - first);
   if (at + kSlab < first + 2 * kSlab)
     munmap(reinterpret_cast<void*>(at + kSlab), first + 2 * kSlab - (at + kSlab));
-  // A hint either way (see huge_page_choice()): the kernel may refuse it.
-  madvise(reinterpret_cast<void*>(at), kSlab,
-          huge_page_choice().on ? MADV_HUGEPAGE : MADV_NOHUGEPAGE);
+  advise_huge_pages(reinterpret_cast<void*>(at), kSlab);
+  // Its pages at once: the pool fills a slab from its start, and every block of it is used
+  // before the next slab is mapped.
+  populate_pages(reinterpret_cast<void*>(at), kSlab);
   return reinterpret_cast<void*>(at);
 }
 
