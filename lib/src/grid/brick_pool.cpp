@@ -44,8 +44,9 @@ void* map_slab() {
   if (at + kSlab < first + 2 * kSlab)
     munmap(reinterpret_cast<void*>(at + kSlab), first + 2 * kSlab - (at + kSlab));
   advise_huge_pages(reinterpret_cast<void*>(at), kSlab);
-  // Its pages at once: the pool fills a slab from its start, and every block of it is used
-  // before the next slab is mapped.
+  // Its pages at once: the pool carves a slab into blocks from its start and maps the next only
+  // when less than a block is left, so all of it is used but a stripe's newest slab (at most 2
+  // MiB a thread present before it is used).
   populate_pages(reinterpret_cast<void*>(at), kSlab);
   return reinterpret_cast<void*>(at);
 }
