@@ -10,6 +10,9 @@
 #include <array>
 #include <cmath>
 #include <random>
+#include <vector>
+
+#include "surface/cube.h"
 
 namespace qjulia::detail {
 namespace {
@@ -109,6 +112,99 @@ TEST(Embed, AFoldInOnePlaneCrossesAndAFlatPairDoesNot) {
   P lifted = above2;
   lifted[2] = std::nextafter(lifted[2], 1.0);  // out of the plane by one unit: no fold
   EXPECT_FALSE(triangles_cross({u, v, above}, {v, u, lifted}));
+}
+
+// A loop of a cell's case with its points on their edges: at random places, on a coarse
+// lattice of places (points in one plane or one line of the view), or at an end of the edge.
+struct CellLoop {
+  P lo, hi;
+  P pts[12];
+  std::vector<Triangle> triangles;
+  // Places the points of loop L of cc in the cell at `lo` of side `voxel`, as the mesh holds
+  // coordinates (floats); `end` puts the first point at its edge's lower corner.
+  CellLoop(const CellCase& cc, int L, std::mt19937_64& rng, bool lattice, bool end) {
+    const P base{0.3, -0.7, 1.1};
+    const double voxel = 0.0058;
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = static_cast<float>(base[a]);
+      hi[a] = static_cast<float>(base[a] + voxel);
+    }
+    std::uniform_real_distribution<double> t(0.001, 0.999);
+    std::uniform_int_distribution<int> step(1, 3);
+    const CubeTables& ct = cube();
+    for (int q = 0; q < cc.length[L]; ++q) {
+      const int e = cc.edge[L][q], d0 = ct.edge_corner[e], j = ct.edge_axis[e];
+      for (int a = 0; a < 3; ++a) pts[q][a] = corner_bit(d0, a) ? hi[a] : lo[a];
+      const double f = end && q == 0 ? 0.0 : lattice ? step(rng) / 4.0 : t(rng);
+      pts[q][j] = static_cast<float>(lo[j] + f * (hi[j] - lo[j]));
+    }
+    for (int tr = 0; tr < cc.triangles[L]; ++tr) {
+      const std::uint8_t* i = cc.tri[L] + 3 * tr;
+      triangles.push_back({pts[i[0]], pts[i[1]], pts[i[2]]});
+    }
+  }
+  bool no_pair_crosses() const {
+    for (std::size_t i = 0; i < triangles.size(); ++i)
+      for (std::size_t j = i + 1; j < triangles.size(); ++j)
+        if (exact_cross(triangles[i], triangles[j])) return false;
+    return true;
+  }
+};
+
+TEST(Embed, ALoopProvedEmbeddedByItsViewHasNoCrossingPair) {
+  std::mt19937_64 rng(20261207);
+  std::uniform_real_distribution<float> value(-1.0f, 1.0f);
+  int loops = 0, proved = 0, crossing = 0, unordered = 0;
+  for (int round = 0; round < 20000; ++round) {
+    float v[8];
+    for (float& x : v) x = value(rng);  // the saddles' answers vary too
+    const CellCase& cc = cell_case(v);
+    for (int L = 0; L < cc.loops; ++L) {
+      if (cc.triangles[L] < 2) continue;
+      const CellLoop loop(cc, L, rng, round % 4 == 1, round % 4 == 3);
+      const bool by_view = loop_embedded(cc, L, loop.pts, loop.lo, loop.hi);
+      const bool pairs = loop.no_pair_crosses();
+      ++loops;
+      proved += by_view;
+      crossing += !pairs;
+      // A proof is never wrong.
+      if (by_view) ASSERT_TRUE(pairs) << "round " << round << " loop " << L;
+      // A point at an end of its edge is not proved (it may coincide with a corner's point).
+      if (round % 4 == 3) EXPECT_FALSE(by_view) << "round " << round;
+      // Points strictly inside their edges are proved whenever no order within a side is needed.
+      if (round % 4 == 0 || round % 4 == 2) {
+        if (cc.view_axis[L] < 3 && cc.view_orders[L] == 0)
+          EXPECT_TRUE(by_view) << "round " << round;
+        unordered += cc.view_orders[L] > 0 && !by_view;
+      }
+    }
+  }
+  // Most loops are proved; some of the others do cross (so the proof had cases to refuse), and
+  // the orders within a side fail for some random places.
+  EXPECT_GT(proved, loops / 2);
+  EXPECT_GT(crossing, 10);
+  EXPECT_GT(unordered, 10);
+}
+
+TEST(Embed, APointOffItsEdgeOrOffTheCellIsNotProved) {
+  float v[8] = {-1, 1, 1, 1, -1, 1, 1, 1};  // corners 0 and 4 inside: a quad round the z edge
+  const CellCase& cc = cell_case(v);
+  ASSERT_EQ(cc.loops, 1);
+  ASSERT_EQ(cc.triangles[0], 2);
+  std::mt19937_64 rng(7);
+  const CellLoop loop(cc, 0, rng, false, false);
+  ASSERT_TRUE(loop_embedded(cc, 0, loop.pts, loop.lo, loop.hi));
+  const CubeTables& ct = cube();
+  for (int q = 0; q < cc.length[0]; ++q) {
+    const int j = ct.edge_axis[cc.edge[0][q]];
+    for (int a = 0; a < 3; ++a) {
+      P moved[12];
+      std::copy(loop.pts, loop.pts + 12, moved);
+      // One unit in the last place off its edge's line, or onto the cell's wall.
+      moved[q][a] = a == j ? loop.hi[a] : std::nextafter(moved[q][a], 2.0);
+      EXPECT_FALSE(loop_embedded(cc, 0, moved, loop.lo, loop.hi)) << q << " " << a;
+    }
+  }
 }
 
 }  // namespace

@@ -317,6 +317,14 @@ BrickPlan plan_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
     const std::uint16_t number = cell_case_index(v);
     out.cells.push_back((static_cast<std::uint32_t>(c) << 16) | number);
     const CellCase& cc = cell_case_at(number);
+    // The cell's corners as its vertices' coordinates hold them (a vertex keeps the coordinates
+    // of its edge's corner exactly, rounded to float like them).
+    auto cell_corner = [&](int up) {
+      Pos p;
+      for (int k = 0; k < 3; ++k)
+        p[k] = static_cast<float>(geo.origin[k] + (base[k] + ci[k] + up) * geo.voxel);
+      return p;
+    };
     placed.clear();
     bool cell_ok = true;
     for (int L = 0; L < cc.loops; ++L) {
@@ -339,7 +347,11 @@ BrickPlan plan_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
       bool done = false;
       if (cc.triangles[L] > 0) {
         triangles_of(cc.tri[L], cc.triangles[L]);
-        if (embedded(fresh, placed)) {
+        // A cell's first loop is usually proved embedded by looking along an axis; else (and for
+        // the loops after it, which must miss it) its triangles are tested pair by pair.
+        if ((placed.empty() && cc.view_axis[L] < 3 &&
+             loop_embedded(cc, L, pts, cell_corner(0), cell_corner(1))) ||
+            embedded(fresh, placed)) {
           done = true;
         } else if (len <= 9) {
           // The other triangulations, least area first.

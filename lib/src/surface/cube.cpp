@@ -1,5 +1,6 @@
 #include "surface/cube.h"
 
+#include <algorithm>
 #include <utility>
 #include <vector>
 
@@ -189,8 +190,68 @@ struct CaseTable {
       }
       c.triangles[L] = static_cast<std::uint8_t>(triangulate_loop(
           l.edge[L], len, [](int, int) { return 0.0; }, c.tri[L]));
+      if (c.triangles[L] > 1) find_view(c, L);
     }
     return c;
+  }
+  // The axis along which loop L's triangulation looks one-to-one, and the orders within the
+  // view's sides that this needs (the fewest of the three axes; none when no axis does it).
+  // Looked at along axis k, the rectangle of the other two axes (u, w) is walked
+  // counter-clockwise from its corner (lo u, lo w): side 0 is w = lo, 1 u = hi, 2 w = hi, 3
+  // u = lo. A point on an edge along k sits at the corner a side starts with; a point on another
+  // edge inside a side. The places must go round once strictly (either way), so points in one
+  // side, next to each other in the loop, must be in the order of the walk. No triangle has its
+  // three points on one closed side (which would be flat in the view): those points all lie on
+  // one face of the cube, and the triangulation joins no two such points by a diagonal.
+  static void find_view(CellCase& c, int L) {
+    const CubeTables& t = cube();
+    const int len = c.length[L];
+    int best_orders = 13;
+    for (int k = 0; k < 3; ++k) {
+      const int u = (k + 1) % 3, w = (k + 2) % 3;
+      int key[12];
+      bool increasing[12];  // along the walk as the coordinate grows (points inside a side)
+      for (int q = 0; q < len; ++q) {
+        const int e = c.edge[L][q], d0 = t.edge_corner[e], j = t.edge_axis[e];
+        const int bu = corner_bit(d0, u), bw = corner_bit(d0, w);
+        int side;
+        if (j == k) {
+          side = bu ? (bw ? 2 : 1) : (bw ? 3 : 0);
+          key[q] = 2 * side;
+        } else {
+          side = j == u ? (bw ? 2 : 0) : (bu ? 1 : 3);
+          key[q] = 2 * side + 1;
+          increasing[q] = side == 0 || side == 1;
+        }
+      }
+      int up = 0, down = 0;
+      for (int q = 0; q < len; ++q) {
+        const int a = key[q], b = key[(q + 1) % len];
+        up += a < b;
+        down += a > b;
+      }
+      // Counter-clockwise: one step back (the wrap); clockwise: one step forward.
+      const bool ccw = down == 1;
+      if (!ccw && up != 1) continue;
+      std::uint8_t order[12][2];
+      int orders = 0;
+      for (int q = 0; q < len; ++q) {
+        const int n = (q + 1) % len;
+        if (key[q] != key[n]) continue;
+        // Two points inside one side (corners have distinct keys): the later one in the loop
+        // further along the walk when counter-clockwise, back along it when clockwise.
+        const bool later_greater = increasing[q] == ccw;
+        order[orders][0] = static_cast<std::uint8_t>(later_greater ? q : n);
+        order[orders][1] = static_cast<std::uint8_t>(later_greater ? n : q);
+        ++orders;
+      }
+      if (orders < best_orders) {
+        best_orders = orders;
+        c.view_axis[L] = static_cast<std::uint8_t>(k);
+        c.view_orders[L] = static_cast<std::uint8_t>(orders);
+        std::copy(&order[0][0], &order[0][0] + 2 * orders, &c.view_order[L][0][0]);
+      }
+    }
   }
 };
 
@@ -214,6 +275,25 @@ CellLoops cell_loops(const float v[8]) {
 const CellCase& cell_case(const float v[8]) { return cell_case_at(cell_case_index(v)); }
 
 const CellCase& cell_case_at(std::uint16_t index) { return case_table().cases[index]; }
+
+bool loop_embedded(const CellCase& cc, int L, const std::array<double, 3>* pts,
+                   const std::array<double, 3>& lo, const std::array<double, 3>& hi) {
+  if (cc.view_axis[L] > 2) return false;
+  const CubeTables& t = cube();
+  bool ok = true;
+  for (int q = 0; q < cc.length[L]; ++q) {
+    const int e = cc.edge[L][q], d0 = t.edge_corner[e], j = t.edge_axis[e];
+    const std::array<double, 3>& p = pts[q];
+    for (int a = 0; a < 3; ++a)
+      ok &= a == j ? (p[a] > lo[a]) & (p[a] < hi[a]) : p[a] == (corner_bit(d0, a) ? hi[a] : lo[a]);
+  }
+  for (int o = 0; o < cc.view_orders[L]; ++o) {
+    const int a = cc.view_order[L][o][0], b = cc.view_order[L][o][1];
+    const int j = t.edge_axis[cc.edge[L][a]];
+    ok &= pts[a][j] < pts[b][j];
+  }
+  return ok;
+}
 
 std::uint16_t cell_case_index(const float v[8]) {
   const CaseTable& table = case_table();

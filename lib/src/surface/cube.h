@@ -48,6 +48,13 @@ struct CellCase {
   std::uint8_t face[4][12] = {};
   std::uint8_t triangles[4] = {};  ///< length - 2, or 0 for a centre vertex
   std::uint8_t tri[4][30] = {};    ///< loop positions, three per triangle
+  /// For a loop whose triangulation above (two triangles or more) looks one-to-one along one of
+  /// the cell's axes whatever its points' places on their edges, but for the order of points
+  /// that the view puts on one side of the cell: that axis (else 3), and those orders (loop
+  /// positions a, b: b is further along their edges' axis than a). See loop_embedded().
+  std::uint8_t view_axis[4] = {3, 3, 3, 3};
+  std::uint8_t view_orders[4] = {};
+  std::uint8_t view_order[4][12][2] = {};
 };
 
 /// The case of a cell with corner values v.
@@ -55,6 +62,17 @@ const CellCase& cell_case(const float v[8]);
 /// The number of that case, and the case of a number.
 std::uint16_t cell_case_index(const float v[8]);
 const CellCase& cell_case_at(std::uint16_t index);
+
+/// True when the triangulation of loop L of case cc with its points at pts (in loop order),
+/// in the cell [lo, hi], is proved embedded: each point lies on its cube edge (its other two
+/// coordinates those of the edge's corner, exactly) strictly between the corners, and the
+/// orders of CellCase::view_order hold. Looked at along view_axis, the points then lie on the
+/// boundary of the cell's rectangle in strict cyclic order and no triangle along one side, so
+/// the triangles map one-to-one onto a convex polygon: no two of them meet other than in their
+/// common corners and edges (triangles_cross() is false for every pair). False when that is not
+/// shown (no view axis, or a condition fails): the pairs must then be tested. Comparisons only.
+bool loop_embedded(const CellCase& cc, int L, const std::array<double, 3>* pts,
+                   const std::array<double, 3>& lo, const std::array<double, 3>& hi);
 
 /// Triangulates a loop of `len` (<= 12) cube edges so that no new edge joins two cube edges that
 /// share a face (the neighbour cell could make the same edge), by dynamic programming over
