@@ -344,14 +344,23 @@ BrickPlan plan_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
         std::copy(tri, tri + 3 * n, choice.tri);
         out.choices.push_back(choice);
       };
+      // A cell's first loop keeps the table's triangles when it has one, or when they are proved
+      // embedded by looking along an axis (usually), without building them; else (and for the
+      // loops after it, which must miss it) its triangles are tested pair by pair.
+      if (placed.empty() && cc.triangles[L] > 0 &&
+          (cc.triangles[L] == 1 ||
+           (cc.view_axis[L] < 3 && loop_embedded(cc, L, pts, cell_corner(0), cell_corner(1))))) {
+        out.triangles += cc.triangles[L];
+        if (L + 1 < cc.loops) {
+          triangles_of(cc.tri[L], cc.triangles[L]);
+          placed.insert(placed.end(), fresh.begin(), fresh.end());
+        }
+        continue;
+      }
       bool done = false;
       if (cc.triangles[L] > 0) {
         triangles_of(cc.tri[L], cc.triangles[L]);
-        // A cell's first loop is usually proved embedded by looking along an axis; else (and for
-        // the loops after it, which must miss it) its triangles are tested pair by pair.
-        if ((placed.empty() && cc.view_axis[L] < 3 &&
-             loop_embedded(cc, L, pts, cell_corner(0), cell_corner(1))) ||
-            embedded(fresh, placed)) {
+        if (embedded(fresh, placed)) {
           done = true;
         } else if (len <= 9) {
           // The other triangulations, least area first.
