@@ -779,9 +779,9 @@ struct BrickSampler::Impl {
     br.visited.for_each([&](int c) { v.visited.set(to_point(c)); });
     br.surface.for_each([&](int c) { v.surface.set(to_point(c)); });
     for (std::uint16_t c : v.frontier_cells) v.frontier.set(to_point(c));
-    br.known.for_each([&](int p) {
-      if (br.get(p) <= 0) v.sign.set(p);
-    });
+    // (Without a branch on the sign, which follows no pattern near the surface.)
+    br.known.for_each(
+        [&](int p) { v.sign.w[p >> 6] |= std::uint64_t{br.get(p) <= 0} << (p & 63); });
     v.closing = true;
   }
 
@@ -809,8 +809,7 @@ struct BrickSampler::Impl {
   void close_step(Visit& v, Outbox& out) const {
     const Brick& br = *v.br;
     const int base[3] = {br.at.x * kBrick, br.at.y * kBrick, br.at.z * kBrick};
-    for (int p : v.queued)
-      if (br.get(p) <= 0) v.sign.set(p);
+    for (int p : v.queued) v.sign.w[p >> 6] |= std::uint64_t{br.get(p) <= 0} << (p & 63);
     // Crossing cells: corners of both signs.
     Pts any_in, all_in = v.frontier;
     Pts corner_sign[8];
