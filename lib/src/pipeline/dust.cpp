@@ -18,11 +18,14 @@ namespace {
 constexpr std::size_t kBlock = std::size_t{1} << 16;  // items a task compacts
 
 // Keeps the items i of [0, n) that keep(i) keeps, in order, at the front: move(from, to) moves
-// item `from` to `to` (never behind it). Each block of kBlock items is compacted within itself in
-// parallel, then the blocks' runs move to their places in order (serial: they may overlap).
+// item `from` to `to` (never behind it), slide(from, to, count) the run of `count` items at `from`
+// to `to` (to <= from; the two may overlap). Each block of kBlock items is compacted within itself
+// in parallel, then the blocks' runs slide to their places in order (serial: they may overlap;
+// a run is one copy of each array, not an item at a time).
 // Returns where each block's kept items start in the result, and the kept count last.
-template <class Keep, class Move>
-std::vector<std::size_t> compact(std::size_t n, const Keep& keep, const Move& move) {
+template <class Keep, class Move, class Slide>
+std::vector<std::size_t> compact(std::size_t n, const Keep& keep, const Move& move,
+                                 const Slide& slide) {
   const std::size_t blocks = (n + kBlock - 1) / kBlock;
   std::vector<std::size_t> start(blocks + 1, 0);
   tbb::parallel_for(std::size_t{0}, blocks, [&](std::size_t b) {
@@ -35,10 +38,15 @@ std::vector<std::size_t> compact(std::size_t n, const Keep& keep, const Move& mo
   for (std::size_t b = 0; b < blocks; ++b) {
     const std::size_t count = start[b + 1];
     start[b + 1] = start[b] + count;
-    if (start[b] != b * kBlock)
-      for (std::size_t i = 0; i < count; ++i) move(b * kBlock + i, start[b] + i);
+    if (start[b] != b * kBlock && count > 0) slide(b * kBlock, start[b], count);
   }
   return start;
+}
+
+// Moves the run of `count` items of v at `from` to `to` (to <= from).
+template <class T>
+void slide(std::vector<T>& v, std::size_t from, std::size_t to, std::size_t count) {
+  std::copy(v.begin() + from, v.begin() + from + count, v.begin() + to);
 }
 
 // Which components are dust; the largest of them in the report.
@@ -106,11 +114,17 @@ void update_measures(ExtractStats& stats, const std::vector<char>& drop, std::si
 // and drops the rest; returns where each block of kBlock vertices' kept ones start (compact()).
 template <class Keep>
 std::vector<std::size_t> compact_vertices(TriMesh& mesh, const Keep& keep) {
-  const std::vector<std::size_t> start =
-      compact(mesh.positions.size(), keep, [&](std::size_t from, std::size_t to) {
+  const std::vector<std::size_t> start = compact(
+      mesh.positions.size(), keep,
+      [&](std::size_t from, std::size_t to) {
         mesh.positions[to] = mesh.positions[from];
         if (!mesh.normals.empty()) mesh.normals[to] = mesh.normals[from];
         if (!mesh.colors.empty()) mesh.colors[to] = mesh.colors[from];
+      },
+      [&](std::size_t from, std::size_t to, std::size_t count) {
+        slide(mesh.positions, from, to, count);
+        if (!mesh.normals.empty()) slide(mesh.normals, from, to, count);
+        if (!mesh.colors.empty()) slide(mesh.colors, from, to, count);
       });
   mesh.positions.resize(start.back());
   if (!mesh.normals.empty()) mesh.normals.resize(start.back());
@@ -149,7 +163,12 @@ CleanReport remove_dust(TriMesh& mesh, ExtractStats& stats, double min_volume) {
     mesh.triangles[to] = mesh.triangles[from];
     comp[to] = comp[from];
   };
-  const std::size_t kept_faces = compact(mesh.triangles.size(), kept, move_face).back();
+  auto slide_faces = [&](std::size_t from, std::size_t to, std::size_t count) {
+    slide(mesh.triangles, from, to, count);
+    slide(comp, from, to, count);
+  };
+  const std::size_t kept_faces =
+      compact(mesh.triangles.size(), kept, move_face, slide_faces).back();
   rep.removed_faces = mesh.triangles.size() - kept_faces;
   mesh.triangles.resize(kept_faces);
   comp.resize(kept_faces);
