@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <sys/stat.h>
+#include <tbb/task_group.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -98,7 +99,17 @@ AtomicFile::AtomicFile(std::string final_path, const CancelToken* cancel)
   }
 }
 
+// The block a task of the thread pool is writing out, if any.
+struct AtomicFile::Pending {
+  tbb::task_group group;
+  bool running = false;
+};
+
 AtomicFile::~AtomicFile() {
+  try {
+    finish_pending();
+  } catch (...) {  // the file is removed anyway
+  }
   if (fd_ >= 0) ::close(fd_);
   if (!committed_ && !temp_path_.empty()) ::unlink(temp_path_.c_str());
 }
@@ -112,9 +123,11 @@ void AtomicFile::FreeStage::operator()(char* p) const { std::free(p); }
 // Big files skip the page cache: copying 250 MB into it and flushing it with fsync() took about
 // twice as long as writing it directly on the project machine. The data is staged in an aligned
 // buffer of kBlock (writers format straight into it through room()); when it lacks room, its
-// whole aligned blocks are written directly; the last, partial stage goes through the page cache.
-// File systems that refuse O_DIRECT (fcntl or the first write fails with EINVAL) are written
-// through the page cache throughout.
+// whole aligned blocks are written directly, by a task of the thread pool while the writer
+// formats into a second stage (newton-cubic at 512: 60 writes of 136 ms in all, and 53 ms of
+// formatting between them); the last, partial stage goes through the page cache. File systems
+// that refuse O_DIRECT (fcntl or the first write fails with EINVAL) are written through the page
+// cache throughout.
 void AtomicFile::write(const void* data, std::size_t size) {
   const char* p = static_cast<const char*>(data);
   while (size > 0) {
@@ -142,25 +155,44 @@ std::pair<char*, char*> AtomicFile::room(std::size_t n) {
 // start; when that still leaves less than `n` free, the rest goes out through the page cache.
 void AtomicFile::spill(std::size_t n) {
   throw_if_cancelled(cancel_);
+  finish_pending();
   if (!direct_tried_) {
     direct_tried_ = true;
     direct_ = set_direct(true);
   }
   const std::size_t head = direct_ ? staged_ / kAlign * kAlign : staged_;
-  if (head > 0) write_out(stage_.get(), head);
   const std::size_t tail = staged_ - head;
   if (tail > 0 && kBlock - tail < n) {
+    if (head > 0) write_out(stage_.get(), head);
     buffered();
     write_out(stage_.get() + head, tail);
     staged_ = 0;
     return;
   }
-  if (tail > 0) std::memmove(stage_.get(), stage_.get() + head, tail);
+  if (head == 0) return;  // (the stage holds less than a block: nothing to write yet)
+  // The head goes out from this stage while the writer goes on in the spare one, from the tail.
+  if (!spare_) {
+    spare_.reset(static_cast<char*>(std::aligned_alloc(kAlign, kBlock)));
+    if (!spare_) throw std::bad_alloc();
+  }
+  if (tail > 0) std::memcpy(spare_.get(), stage_.get() + head, tail);
+  if (!pending_) pending_ = std::make_unique<Pending>();
+  const char* out = stage_.get();
+  pending_->running = true;
+  pending_->group.run([this, out, head] { write_out(out, head); });
+  std::swap(stage_, spare_);
   staged_ = tail;
+}
+
+void AtomicFile::finish_pending() {
+  if (!pending_ || !pending_->running) return;
+  pending_->running = false;
+  pending_->group.wait();  // rethrows the task's exception
 }
 
 // The last, partial stage: its whole aligned blocks directly, the rest through the page cache.
 void AtomicFile::flush_stage() {
+  finish_pending();
   if (staged_ == 0) return;
   const std::size_t head = direct_ ? staged_ / kAlign * kAlign : 0;
   if (head > 0) write_out(stage_.get(), head);

@@ -75,6 +75,7 @@ class AtomicFile {
   void buffered();           // the rest through the page cache (O_DIRECT off)
   void flush_stage();
   void spill(std::size_t n);  // writes out the stage's whole aligned blocks to make room for n
+  void finish_pending();      // waits for the block being written out; throws its error
   std::string final_path_;
   std::string temp_path_;
   const CancelToken* cancel_ = nullptr;
@@ -85,6 +86,11 @@ class AtomicFile {
   std::unique_ptr<char, FreeStage> stage_;
   std::size_t staged_ = 0;
   bool direct_ = false, direct_tried_ = false;
+  // A full stage is written out by a task of the thread pool while the writer fills the spare
+  // one (with one thread, when the next stage is full): at most one block in flight.
+  struct Pending;
+  std::unique_ptr<char, FreeStage> spare_;
+  std::unique_ptr<Pending> pending_;
 };
 
 /// Formats output straight into an AtomicFile's stage (no buffer of its own, no copy): reserve
