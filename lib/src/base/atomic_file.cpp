@@ -125,9 +125,12 @@ void AtomicFile::FreeStage::operator()(char* p) const { std::free(p); }
 // buffer of kBlock (writers format straight into it through room()); when it lacks room, its
 // whole aligned blocks are written directly, by a task of the thread pool while the writer
 // formats into a second stage (newton-cubic at 512: 60 writes of 136 ms in all, and 53 ms of
-// formatting between them); the last, partial stage goes through the page cache. File systems
-// that refuse O_DIRECT (fcntl or the first write fails with EINVAL) are written through the page
-// cache throughout.
+// formatting between them; a thread of its own per block gained less, competing with the pool's
+// threads for two cores); the last, partial stage goes through the page cache. With one thread
+// the task runs when the next stage is full, as the write ran before. Waiting for it may run
+// other tasks of the pool on the writer's stack: the writers keep no thread-local state. File
+// systems that refuse O_DIRECT (fcntl or the first write fails with EINVAL) are written through
+// the page cache throughout.
 void AtomicFile::write(const void* data, std::size_t size) {
   const char* p = static_cast<const char*>(data);
   while (size > 0) {
