@@ -184,6 +184,29 @@ TEST(AtomicFile, TheFormattingWriterWritesExactlyWhatItIsGiven) {
   }
 }
 
+// A stage is written out while the next is filled: a file given up (no commit) with a block
+// still being written, or cancelled there, leaves nothing behind and the old file as it was.
+TEST(AtomicFile, AFileGivenUpWithABlockInFlightLeavesNothingAndTheOldFile) {
+  TempDir dir;
+  const std::string path = dir.file("kept.bin");
+  write_bytes(path, "old");
+  constexpr std::size_t kStage = qjulia::AtomicFile::kStageBytes;
+  for (int round = 0; round < 20; ++round) {
+    qjulia::CancelToken cancel;
+    {
+      qjulia::AtomicFile f(path, &cancel);
+      // One stage and a little more: the first stage goes out while the writer goes on.
+      write_in_pieces(f, big_bytes(kStage + 1000 + round * 4097));
+      if (round % 2) {
+        cancel.request();
+        EXPECT_THROW(write_in_pieces(f, big_bytes(kStage)), qjulia::Cancelled);
+      }
+    }
+    EXPECT_EQ(read_bytes(path), "old") << "round " << round;
+    EXPECT_EQ(dir.names().size(), 1u) << "round " << round << ": " << dir.names().back();
+  }
+}
+
 TEST(AtomicFile, ADiskThatFillsAfterTheFirstBlocksIsARuntimeErrorAndLeavesNoFile) {
   Tmpfs disk("40m");
   ASSERT_TRUE(disk.mounted());
