@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <tuple>
 
+#include "base/threads.h"
 #include "qjulia/base/error.h"
 
 namespace qjulia {
@@ -127,10 +128,10 @@ void AtomicFile::FreeStage::operator()(char* p) const { std::free(p); }
 // formats into a second stage (newton-cubic at 512: 60 writes of 136 ms in all, and 53 ms of
 // formatting between them; a thread of its own per block gained less, competing with the pool's
 // threads for two cores); the last, partial stage goes through the page cache. With one thread
-// the task runs when the next stage is full, as the write ran before. Waiting for it may run
-// other tasks of the pool on the writer's stack: the writers keep no thread-local state. File
-// systems that refuse O_DIRECT (fcntl or the first write fails with EINVAL) are written through
-// the page cache throughout.
+// the stage is written out at once, as before. Waiting for the task may run other tasks of the
+// pool on the writer's stack: the writers keep no thread-local state. File systems that refuse
+// O_DIRECT (fcntl or the first write fails with EINVAL) are written through the page cache
+// throughout.
 void AtomicFile::write(const void* data, std::size_t size) {
   const char* p = static_cast<const char*>(data);
   while (size > 0) {
@@ -173,6 +174,12 @@ void AtomicFile::spill(std::size_t n) {
     return;
   }
   if (head == 0) return;  // (the stage holds less than a block: nothing to write yet)
+  if (detail::threads_that_may_run() < 2) {  // no thread to write while this one formats
+    write_out(stage_.get(), head);
+    if (tail > 0) std::memmove(stage_.get(), stage_.get() + head, tail);
+    staged_ = tail;
+    return;
+  }
   // The head goes out from this stage while the writer goes on in the spare one, from the tail.
   if (!spare_) {
     spare_.reset(static_cast<char*>(std::aligned_alloc(kAlign, kBlock)));

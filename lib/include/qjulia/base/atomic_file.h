@@ -86,8 +86,8 @@ class AtomicFile {
   std::unique_ptr<char, FreeStage> stage_;
   std::size_t staged_ = 0;
   bool direct_ = false, direct_tried_ = false;
-  // A full stage is written out by a task of the thread pool while the writer fills the spare
-  // one (with one thread, when the next stage is full): at most one block in flight.
+  // When the run may use two threads or more, a full stage is written out by a task of the
+  // thread pool while the writer fills the spare one: at most one block in flight.
   struct Pending;
   std::unique_ptr<char, FreeStage> spare_;
   std::unique_ptr<Pending> pending_;
