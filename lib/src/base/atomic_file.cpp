@@ -155,8 +155,10 @@ std::pair<char*, char*> AtomicFile::room(std::size_t n) {
   return {stage_.get() + staged_, stage_.get() + kBlock};
 }
 
-// Writes out the stage's whole aligned blocks and moves the rest (less than one block) to its
-// start; when that still leaves less than `n` free, the rest goes out through the page cache.
+// Writes out the stage's whole aligned blocks (at once, or by a task while the writer goes on in
+// the spare stage) and moves the rest (less than one block) to the start of the stage the writer
+// goes on in; when that would leave less than `n` free, the rest goes out through the page cache
+// at once.
 void AtomicFile::spill(std::size_t n) {
   throw_if_cancelled(cancel_);
   finish_pending();
