@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <string>
@@ -395,6 +397,56 @@ TEST(Kernel, EveryPresetMatchesTheScalarReferenceOnEveryTarget) {
   for (const std::string& name : preset_names()) {
     SCOPED_TRACE(name);
     EXPECT_LT(check_against_reference(preset(name), 4000, seed++), 0.01);
+  }
+}
+
+// The float output (what Classifier::field writes) is the double output rounded to float, bit
+// for bit, for F and the refinement value, on every target: random points of each preset's box
+// plus points where metrics are 0 or the orbit meets a pole (the special cases' path), in
+// batches of odd lengths (the finished orbits are padded to a pair of vectors).
+TEST(Kernel, TheFloatOutputIsTheDoubleOutputRounded) {
+  std::mt19937_64 rng(20261207);
+  for (const std::string& name : preset_names()) {
+    SCOPED_TRACE(name);
+    const Params p = preset(name);
+    const Classifier cls(p);
+    const detail::KernelSetup* k = cls.kernel();
+    ASSERT_NE(k, nullptr);
+    std::vector<double> x, y, z;
+    for (double v : {0.0, 1.0, -1.0, 0.5}) {  // on the axes: zero and pole orbits
+      x.push_back(v);
+      y.push_back(0);
+      z.push_back(0);
+    }
+    for (int i = 0; i < 2997; ++i) {
+      x.push_back(std::uniform_real_distribution<double>(p.bounds.min[0], p.bounds.max[0])(rng));
+      y.push_back(std::uniform_real_distribution<double>(p.bounds.min[1], p.bounds.max[1])(rng));
+      z.push_back(std::uniform_real_distribution<double>(p.bounds.min[2], p.bounds.max[2])(rng));
+    }
+    for (std::int64_t target : detail::kernel_dispatch_targets()) {
+      hwy::SetSupportedTargetsForTest(target);
+      for (bool root : {false, true})
+        for (std::size_t n : {x.size(), std::size_t{1}, std::size_t{13}, std::size_t{1001}}) {
+          std::vector<double> wide(n, std::nan(""));
+          std::vector<float> narrow(n, std::nanf(""));
+          const auto steps =
+              detail::kernel_field(*k, x.data(), y.data(), z.data(), n, wide.data(), root);
+          EXPECT_EQ(detail::kernel_field(*k, x.data(), y.data(), z.data(), n, narrow.data(), root),
+                    steps);
+          int wrong = 0;
+          for (std::size_t i = 0; i < n; ++i) {
+            const float want = static_cast<float>(wide[i]);
+            std::uint32_t a, b;
+            std::memcpy(&a, &want, 4);
+            std::memcpy(&b, &narrow[i], 4);
+            if (a != b && wrong++ < 3)
+              ADD_FAILURE() << hwy::TargetName(target) << (root ? " root" : " F") << " n=" << n
+                            << " at " << i << ": " << narrow[i] << " against " << want;
+          }
+          EXPECT_EQ(wrong, 0);
+        }
+    }
+    hwy::SetSupportedTargetsForTest(0);
   }
 }
 

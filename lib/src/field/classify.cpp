@@ -94,15 +94,13 @@ std::uint64_t Classifier::root_field(const double* x, const double* y, const dou
 std::uint64_t Classifier::values(const double* x, const double* y, const double* z, std::size_t n,
                                  float* out, bool root) const {
   if (kernel_) {
-    // In blocks, through a double buffer on the stack.
-    constexpr std::size_t kBlock = 1024;
-    double f[kBlock];
+    // Straight into out, in blocks that bound the kernel's queue (about 80 bytes a point, kept
+    // by each thread for its next call); the pipeline's batches are smaller than one.
+    constexpr std::size_t kBlock = 16384;
     std::uint64_t steps = 0;
-    for (std::size_t i = 0; i < n; i += kBlock) {
-      const std::size_t m = std::min(kBlock, n - i);
-      steps += detail::kernel_field(*kernel_, x + i, y + i, z + i, m, f, root);
-      for (std::size_t j = 0; j < m; ++j) out[i + j] = static_cast<float>(f[j]);
-    }
+    for (std::size_t i = 0; i < n; i += kBlock)
+      steps += detail::kernel_field(*kernel_, x + i, y + i, z + i, std::min(kBlock, n - i), out + i,
+                                    root);
     return steps;
   }
   std::uint64_t steps = 0;

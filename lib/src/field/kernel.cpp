@@ -719,14 +719,37 @@ HWY_INLINE V half_log_ratio(V m, double log_r) {
   return hn::IfThenElse(finite, hn::IfThenElse(positive, l, hn::Neg(inf)), inf);
 }
 
+// f within +-limit, NaN taken as +limit.
+HWY_INLINE V clamp_field(V f) {
+  const D d;
+  const V big = hn::Set(d, kFieldLimit), nbig = hn::Set(d, -kFieldLimit);
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+  // vminpd gives its second operand when either is NaN: the clamp takes NaN to +limit itself.
+  return V{_mm512_max_pd(_mm512_min_pd(f.raw, big.raw), nbig.raw)};
+#else
+  return hn::IfThenElse(hn::IsNaN(f), big, hn::Min(big, hn::Max(nbig, f)));
+#endif
+}
+
+// What F and the refinement value read of the setup, held by value: a loop that scatters its
+// results through a pointer would otherwise load them again at every vector (the stores may
+// alias the setup).
+struct FieldConsts {
+  bool escape;
+  int iterations;
+  double log_r;
+  explicit FieldConsts(const KernelSetup& s)
+      : escape(s.escape), iterations(s.iterations), log_r(s.log_r) {}
+};
+
 // F of decided orbits from their code (exit / convergence step, -1 never, -2 pole), metric a
 // and previous metric b: the formulas of the scalar classifier, lane by lane. Without kSpecial,
 // for a vector whose metrics are all positive normal numbers, where none of the special cases'
 // tests can apply (the same operations on the same values otherwise).
 template <bool kSpecial>
-HWY_INLINE V field_formula(const KernelSetup& s, V k, V a, V b) {
+HWY_INLINE V field_formula(const FieldConsts& s, V k, V a, V b) {
   const D d;
-  const V big = hn::Set(d, kFieldLimit), nbig = hn::Set(d, -kFieldLimit);
+  const V nbig = hn::Set(d, -kFieldLimit);
   const V iters = hn::Set(d, s.iterations), one = hn::Set(d, 1.0);
   const V sa = half_log_ratio<kSpecial>(a, s.log_r), sb = half_log_ratio<kSpecial>(b, s.log_r);
   V f;
@@ -748,33 +771,61 @@ HWY_INLINE V field_formula(const KernelSetup& s, V k, V a, V b) {
     f = hn::IfThenElse(hn::Eq(k, hn::Set(d, -2.0)), nbig, f);
   }
   // (Without kSpecial a sum of 0 in the fraction still gives NaN, clamped here.)
-  return hn::IfThenElse(hn::IsNaN(f), big, hn::Min(big, hn::Max(nbig, f)));
-}
-
-// field_formula(), the short way where it can.
-HWY_INLINE V field_of(const KernelSetup& s, V k, V a, V b) {
-  if (HWY_LIKELY(hn::AllFalse(D(), hn::Or(not_positive_normal(a), not_positive_normal(b)))))
-    return field_formula<false>(s, k, a, b);
-  return field_formula<true>(s, k, a, b);
+  return clamp_field(f);
 }
 
 // The value refinement finds the boundary with: max_k s_k (escape) or -min_k t_k (cut-off) over
 // the orbit up to its decision: exactly the method's test (the point is in the solid when it is
 // <= 0), and continuous everywhere, unlike F, whose formula changes at the boundary. A pole
 // (cut-off) gives -limit.
-HWY_INLINE V root_of(const KernelSetup& s, V k, V a, V b) {
+// Decided at step k, it is read from the metric then (the first beyond the bailout, or below
+// the cut-off, so also the extreme so far); never decided, from the extreme over the orbit.
+HWY_INLINE V root_metric(V k, V a, V b) {
+  return hn::IfThenElse(hn::Eq(k, hn::Set(D(), -1.0)), b, a);
+}
+
+template <bool kSpecial>
+HWY_INLINE V root_formula(const FieldConsts& s, V k, V a, V b) {
   const D d;
   const V big = hn::Set(d, kFieldLimit);
-  // Decided at step k: the metric then (the first beyond the bailout, or below the cut-off,
-  // so also the extreme so far); never decided: the extreme over the orbit.
-  const auto never = hn::Eq(k, hn::Set(d, -1.0));
-  const V m = hn::IfThenElse(never, b, a);
-  const V sa = HWY_LIKELY(hn::AllFalse(d, not_positive_normal(m)))
-                   ? half_log_ratio<false>(m, s.log_r)
-                   : half_log_ratio<true>(m, s.log_r);
+  const V sa = half_log_ratio<kSpecial>(root_metric(k, a, b), s.log_r);
   V g = s.escape ? sa : hn::Neg(sa);
   if (!s.escape) g = hn::IfThenElse(hn::Eq(k, hn::Set(d, -2.0)), hn::Neg(big), g);
-  return hn::IfThenElse(hn::IsNaN(g), big, hn::Min(big, hn::Max(hn::Neg(big), g)));
+  return clamp_field(g);
+}
+
+// The lanes of a vector of decided orbits that need the special cases of F (kRoot false) or of
+// the refinement value (kRoot true): a metric it reads that is not a positive normal number.
+template <bool kRoot>
+HWY_INLINE M needs_special(V k, V a, V b) {
+  if (kRoot) return not_positive_normal(root_metric(k, a, b));
+  return hn::Or(not_positive_normal(a), not_positive_normal(b));
+}
+
+template <bool kRoot, bool kSpecial>
+HWY_INLINE V value_formula(const FieldConsts& s, V k, V a, V b) {
+  return kRoot ? root_formula<kSpecial>(s, k, a, b) : field_formula<kSpecial>(s, k, a, b);
+}
+
+// F or the refinement value of two vectors of decided orbits, the short way where it can.
+// Both at once, in one block without a branch when neither needs the special cases: each is a
+// long chain of dependent operations (two logarithms, a reciprocal), and two independent
+// chains side by side keep the vector units busy where one after the other left them waiting.
+template <bool kRoot>
+HWY_INLINE void values_of_two(const FieldConsts& s, const V (&k)[2], const V (&a)[2],
+                              const V (&b)[2], V (&f)[2]) {
+  const D d;
+  const M s0 = needs_special<kRoot>(k[0], a[0], b[0]);
+  const M s1 = needs_special<kRoot>(k[1], a[1], b[1]);
+  if (HWY_LIKELY(hn::AllFalse(d, hn::Or(s0, s1)))) {
+    f[0] = value_formula<kRoot, false>(s, k[0], a[0], b[0]);
+    f[1] = value_formula<kRoot, false>(s, k[1], a[1], b[1]);
+    return;
+  }
+  f[0] = hn::AllFalse(d, s0) ? value_formula<kRoot, false>(s, k[0], a[0], b[0])
+                             : value_formula<kRoot, true>(s, k[0], a[0], b[0]);
+  f[1] = hn::AllFalse(d, s1) ? value_formula<kRoot, false>(s, k[1], a[1], b[1])
+                             : value_formula<kRoot, true>(s, k[1], a[1], b[1]);
 }
 
 #if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
@@ -868,11 +919,13 @@ struct ChainStep {
 
 class Machine {
  public:
+  // F (or the refinement value) into out, or rounded to float into out_float (one of them).
   std::uint64_t run(const KernelSetup& s, const double* x, const double* y, const double* z,
-                    std::size_t n, double* out, bool root) {
+                    std::size_t n, double* out, float* out_float, bool root) {
     root_ = root;
     s_ = &s;
     out_ = out;
+    out_float_ = out_float;
     steps_ = 0;
     fcount_ = 0;
     const std::size_t nl = hn::Lanes(D());
@@ -1526,30 +1579,64 @@ class Machine {
     const D d;
     const std::size_t nl = hn::Lanes(d);
     HWY_ALIGN double f[8] = {};
-    for (std::size_t i = fcount_; i % nl; ++i) {  // pad the last vector with a harmless orbit
-      fcode_[i] = -1;
+    // Pad to a whole pair of vectors with harmless orbits of no steps.
+    for (std::size_t i = fcount_; i % (2 * nl); ++i) {
+      fcode_[i] = 0;
       fa_[i] = fb_[i] = 1;
       fidx_[i] = -1;
     }
+    // Everything the loop reads besides the buffers in locals: the scatter's stores could
+    // alias the members and the setup, which would be loaded again at every vector.
+    const FieldConsts fc(*s_);
+    const std::size_t count = fcount_;
+    double* const out = out_;
+    float* const out_float = out_float_;
     const V iters = hn::Set(d, s_->iterations);
     V steps = hn::Zero(d);
-    for (std::size_t i = 0; i < fcount_; i += nl) {
-      const V k = hn::Load(d, fcode_ + i);
-      const V idx = hn::Load(d, fidx_ + i);
-      const V fv = root_ ? root_of(*s_, k, hn::Load(d, fa_ + i), hn::Load(d, fb_ + i))
-                         : field_of(*s_, k, hn::Load(d, fa_ + i), hn::Load(d, fb_ + i));
-      // Steps done: the exit step, or N for an orbit that never decided (and the padding,
-      // whose point index is negative, none).
-      const V done = hn::IfThenElse(hn::Lt(k, hn::Zero(d)), iters, k);
-      steps = hn::Add(steps, hn::IfThenElseZero(hn::Ge(idx, hn::Zero(d)), done));
+    auto each = [&](auto root, auto single) __attribute__((always_inline)) {
+      for (std::size_t i = 0; i < count; i += 2 * nl) {
+        const V k[2] = {hn::Load(d, fcode_ + i), hn::Load(d, fcode_ + i + nl)};
+        const V a[2] = {hn::Load(d, fa_ + i), hn::Load(d, fa_ + i + nl)};
+        const V b[2] = {hn::Load(d, fb_ + i), hn::Load(d, fb_ + i + nl)};
+        V fv[2];
+        values_of_two<decltype(root)::value>(fc, k, a, b, fv);
+        for (std::size_t h = 0; h < 2; ++h) {
+          const std::size_t at = i + h * nl;
+          // Steps done: the exit step, or N for an orbit that never decided (none for the
+          // padding).
+          steps = hn::Add(steps, hn::IfThenElse(hn::Lt(k[h], hn::Zero(d)), iters, k[h]));
 #if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
-      const __mmask8 valid = _mm512_cmp_pd_mask(idx.raw, _mm512_setzero_pd(), _CMP_GE_OQ);
-      _mm512_mask_i64scatter_pd(out_, valid, _mm512_cvttpd_epi64(idx.raw), fv.raw, 8);
+          const V idx = hn::Load(d, fidx_ + at);
+          const __mmask8 valid = _mm512_cmp_pd_mask(idx.raw, _mm512_setzero_pd(), _CMP_GE_OQ);
+          const __m512i to = _mm512_cvttpd_epi64(idx.raw);
+          if constexpr (decltype(single)::value)
+            _mm512_mask_i64scatter_ps(out_float, valid, to, _mm512_cvtpd_ps(fv[h].raw), 4);
+          else
+            _mm512_mask_i64scatter_pd(out, valid, to, fv[h].raw, 8);
 #else
-      hn::Store(fv, d, f);
-      const std::size_t m = std::min(nl, fcount_ - i);
-      for (std::size_t q = 0; q < m; ++q) out_[static_cast<std::size_t>(fidx_[i + q])] = f[q];
+          hn::Store(fv[h], d, f);
+          const std::size_t m = at < count ? std::min(nl, count - at) : 0;
+          for (std::size_t q = 0; q < m; ++q) {
+            const auto to = static_cast<std::size_t>(fidx_[at + q]);
+            if constexpr (decltype(single)::value)
+              out_float[to] = static_cast<float>(f[q]);
+            else
+              out[to] = f[q];
+          }
 #endif
+        }
+      }
+    };
+    if (root_) {
+      if (out_float)
+        each(std::true_type{}, std::true_type{});
+      else
+        each(std::true_type{}, std::false_type{});
+    } else {
+      if (out_float)
+        each(std::false_type{}, std::true_type{});
+      else
+        each(std::false_type{}, std::false_type{});
     }
     steps_ += static_cast<std::uint64_t>(hn::GetLane(hn::SumOfLanes(d, steps)));
     fcount_ = 0;
@@ -1707,6 +1794,7 @@ class Machine {
   const KernelSetup* s_ = nullptr;
   bool root_ = false;
   double* out_ = nullptr;
+  float* out_float_ = nullptr;
   std::uint64_t steps_ = 0;
   std::size_t lanes_ = 0, live_ = 0;
   bool result_is_temp_ = false;
@@ -1727,8 +1815,9 @@ class Machine {
   std::vector<double> qh_[4], qc_[4], qidx_, qprev_;
   std::size_t queued_ = 0, taken_ = 0;
   // Finished orbits.
-  HWY_ALIGN double fcode_[kFinished + 8], fa_[kFinished + 8], fb_[kFinished + 8],
-      fidx_[kFinished + 8];
+  // (Room for the padding to a pair of vectors.)
+  HWY_ALIGN double fcode_[kFinished + 16], fa_[kFinished + 16], fb_[kFinished + 16],
+      fidx_[kFinished + 16];
   std::size_t fcount_ = 0;
 };
 
@@ -1741,7 +1830,12 @@ Machine& thread_machine() {
 
 std::uint64_t KernelField(const KernelSetup& s, const double* x, const double* y, const double* z,
                           std::size_t n, double* out, bool root) {
-  return thread_machine().run(s, x, y, z, n, out, root);
+  return thread_machine().run(s, x, y, z, n, out, nullptr, root);
+}
+
+std::uint64_t KernelFieldFloat(const KernelSetup& s, const double* x, const double* y,
+                               const double* z, std::size_t n, float* out, bool root) {
+  return thread_machine().run(s, x, y, z, n, nullptr, out, root);
 }
 
 int KernelLoopOf(const KernelSetup& s) { return static_cast<int>(thread_machine().loop(s)); }
@@ -1773,6 +1867,7 @@ HWY_AFTER_NAMESPACE();
 namespace qjulia::detail {
 
 HWY_EXPORT(KernelField);
+HWY_EXPORT(KernelFieldFloat);
 HWY_EXPORT(KernelAnalytic);
 HWY_EXPORT(KernelLoopOf);
 
@@ -1942,6 +2037,12 @@ std::uint64_t kernel_field(const KernelSetup& setup, const double* x, const doub
                            const double* z, std::size_t n, double* out, bool root) {
   if (n == 0) return 0;
   return HWY_DYNAMIC_DISPATCH(KernelField)(setup, x, y, z, n, out, root);
+}
+
+std::uint64_t kernel_field(const KernelSetup& setup, const double* x, const double* y,
+                           const double* z, std::size_t n, float* out, bool root) {
+  if (n == 0) return 0;
+  return HWY_DYNAMIC_DISPATCH(KernelFieldFloat)(setup, x, y, z, n, out, root);
 }
 
 }  // namespace qjulia::detail

@@ -90,6 +90,9 @@ bool kernel_supports(const Op* ops, int op_count);
 /// With `root`, writes the refinement value instead (see Classifier::root_field).
 std::uint64_t kernel_field(const KernelSetup& setup, const double* x, const double* y,
                            const double* z, std::size_t n, double* out, bool root = false);
+/// The same values rounded to float (as static_cast<float> rounds them), written directly.
+std::uint64_t kernel_field(const KernelSetup& setup, const double* x, const double* y,
+                           const double* z, std::size_t n, float* out, bool root = false);
 
 /// How the vector kernel runs a program's orbits: on AVX-512 and AVX2 in registers for one square
 /// of h plus an addition (h^2 + c), Newton's maps of a cubic ((s h^3 + a) / (t h^2)) and chains
