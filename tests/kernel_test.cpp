@@ -450,6 +450,68 @@ TEST(Kernel, TheFloatOutputIsTheDoubleOutputRounded) {
   }
 }
 
+// An axis-aligned slice's points by additions (KernelSetup::axis_slice) give the values of the
+// fused form, bit for bit: every preset, and h^2 + c and h^1.5 + c (whose logarithm tells the
+// sign of a zero) under other axis orders and fixed values of either sign (a negative one, or
+// -0, makes origin components -0), at random points of the box and at points whose
+// coordinates are +-0 and +-0.5, on every target, F and the refinement value.
+TEST(Kernel, AnAxisAlignedSliceByAdditionsGivesTheFusedFormsValues) {
+  std::mt19937_64 rng(20261207);
+  std::vector<Params> cases;
+  for (const std::string& name : preset_names()) cases.push_back(preset(name));
+  for (const char* name : {"classic-julia", "power-screw"})
+    for (const char* axes : {"rmn", "nmr", "pnm", "mrp"})
+      for (double fixed : {0.0, 0.3, -0.25, -0.0}) {
+        Params p = preset(name);
+        p.slice.axes = axes;
+        p.slice.fixed = fixed;
+        cases.push_back(p);
+      }
+  int by_additions = 0;
+  for (const Params& p : cases) {
+    SCOPED_TRACE(p.formula + " axes " + p.slice.axes + " fixed " + std::to_string(p.slice.fixed) +
+                 (std::signbit(p.slice.fixed) ? " (negative)" : ""));
+    const Classifier cls(p);
+    const detail::KernelSetup* k = cls.kernel();
+    ASSERT_NE(k, nullptr);
+    by_additions += k->axis_slice;
+    detail::KernelSetup fused = *k;
+    fused.axis_slice = false;
+    std::vector<double> x, y, z;
+    const double special[4] = {0.0, -0.0, 0.5, -0.5};
+    for (double a : special)
+      for (double b : special)
+        for (double c : special) {
+          x.push_back(a);
+          y.push_back(b);
+          z.push_back(c);
+        }
+    for (int i = 0; i < 1000; ++i) {
+      x.push_back(std::uniform_real_distribution<double>(p.bounds.min[0], p.bounds.max[0])(rng));
+      y.push_back(std::uniform_real_distribution<double>(p.bounds.min[1], p.bounds.max[1])(rng));
+      z.push_back(std::uniform_real_distribution<double>(p.bounds.min[2], p.bounds.max[2])(rng));
+    }
+    for (std::int64_t target : detail::kernel_dispatch_targets()) {
+      hwy::SetSupportedTargetsForTest(target);
+      for (bool root : {false, true}) {
+        std::vector<double> got(x.size()), want(x.size());
+        detail::kernel_field(*k, x.data(), y.data(), z.data(), x.size(), got.data(), root);
+        detail::kernel_field(fused, x.data(), y.data(), z.data(), x.size(), want.data(), root);
+        int wrong = 0;
+        for (std::size_t i = 0; i < x.size(); ++i)
+          if (std::memcmp(&got[i], &want[i], sizeof(double)) != 0 && wrong++ < 3)
+            ADD_FAILURE() << hwy::TargetName(target) << (root ? " root" : " F") << " at (" << x[i]
+                          << ", " << y[i] << ", " << z[i] << "): " << got[i] << " against "
+                          << want[i];
+        EXPECT_EQ(wrong, 0);
+      }
+    }
+    hwy::SetSupportedTargetsForTest(0);
+  }
+  // The additions must have been taken: every axis-aligned case above.
+  EXPECT_EQ(by_additions, static_cast<int>(cases.size()));
+}
+
 TEST(Kernel, RandomFormulasMatchTheScalarReferenceOnEveryTarget) {
   std::mt19937_64 rng(20261201);
   double excluded = 0;

@@ -157,6 +157,31 @@ HWY_INLINE Q slice_point(V x, V y, V z, const Q& o, const Q& d0, const Q& d1, co
           comp(o.z, d0.z, d1.z, d2.z)};
 }
 
+// The point of slice coordinates (x, y, z) for s: by one addition a component where the slice
+// is axis-aligned (KernelSetup::axis_slice) and the coordinates are finite (their sum is: an
+// infinity or NaN makes it infinite or NaN), else by slice_point(); the same bits either way.
+// slice_point() adds to the origin's component, in turn, the coordinate on that axis and the
+// others times +0 (zeros with the others' signs): the sum is the coordinate plus the origin's
+// component, except that a sum of zeros is -0 only when every term is; so an origin component
+// of -0 (a negative fixed value times 0) stands for -0 when all three coordinates have their
+// sign bit set, else +0. (The slice's sixteen constants broadcast and twelve fused
+// multiply-adds were about a tenth of the register loop's time on classic-julia's box.)
+HWY_INLINE Q point_of(const KernelSetup& s, V x, V y, V z) {
+  const D d;
+  if (s.axis_slice && HWY_LIKELY(hn::AllTrue(d, hn::IsFinite(hn::Add(hn::Add(x, y), z))))) {
+    const V zero_of_signs =
+        s.origin_negative_zero ? hn::And(hn::And(x, y), hn::And(z, hn::Set(d, -0.0))) : hn::Zero(d);
+    auto comp = [&](int c, double o) {
+      const V base = (s.origin_negative_zero >> c) & 1 ? zero_of_signs : hn::Set(d, o);
+      const int a = s.axis_of[c];
+      return a < 0 ? base : hn::Add(a == 0 ? x : a == 1 ? y : z, base);
+    };
+    return {comp(0, s.origin.w), comp(1, s.origin.x), comp(2, s.origin.y), comp(3, s.origin.z)};
+  }
+  return slice_point(x, y, z, broadcast(s.origin), broadcast(s.dir[0]), broadcast(s.dir[1]),
+                     broadcast(s.dir[2]));
+}
+
 // The lanes whose step metric makes their orbit leave: escape, |q|^2 > R^2 (NaN and inf leave
 // too); cut-off, |q - h|^2 < r^2 (converged), or a pole or an overflow (a large step that never
 // converges).
@@ -995,8 +1020,7 @@ class Machine {
     qidx_.resize(n + nl);
     qprev_.resize(n + nl);
     queued_ = taken_ = 0;
-    const Q o = broadcast(s_->origin), d0 = broadcast(s_->dir[0]), d1 = broadcast(s_->dir[1]),
-            d2 = broadcast(s_->dir[2]), start = broadcast(s_->start);
+    const Q start = broadcast(s_->start);
     HWY_ALIGN double lane_index[8] = {0, 1, 2, 3, 4, 5, 6, 7};
     const V iota = hn::Load(d, lane_index);
     const V inf = hn::Set(d, std::numeric_limits<double>::infinity());
@@ -1016,7 +1040,7 @@ class Machine {
         vy = hn::Load(d, by);
         vz = hn::Load(d, bz);
       }
-      const Q q = slice_point(vx, vy, vz, o, d0, d1, d2);
+      const Q q = point_of(*s_, vx, vy, vz);
       const Q h = s_->mandelbrot ? start : q;
       const V idx = hn::Add(iota, hn::Set(d, static_cast<double>(i)));
       M valid = hn::FirstN(d, m);
@@ -1276,8 +1300,7 @@ class Machine {
         const V id{
             _mm512_maskz_expand_pd(m, hn::Add(hn::Load(d, kIota), hn::Set(d, double(next))).raw)};
         next += count;
-        const Q q = slice_point(vx, vy, vz, broadcast(s_->origin), broadcast(s_->dir[0]),
-                                broadcast(s_->dir[1]), broadcast(s_->dir[2]));
+        const Q q = point_of(*s_, vx, vy, vz);
         const Q h0 = s_->mandelbrot ? broadcast(s_->start) : q;
         __mmask8 ok = m;
         V p = hn::Set(d, std::numeric_limits<double>::infinity());  // cut-off: no step before
@@ -1407,8 +1430,7 @@ class Machine {
         const V vz = expand(_mm256_maskload_pd(z + next, first));
         const V id = expand(hn::Add(hn::Load(d, kIota), hn::Set(d, double(next))).raw);
         next += count;
-        const Q q = slice_point(vx, vy, vz, broadcast(s_->origin), broadcast(s_->dir[0]),
-                                broadcast(s_->dir[1]), broadcast(s_->dir[2]));
+        const Q q = point_of(*s_, vx, vy, vz);
         const Q h0 = s_->mandelbrot ? broadcast(s_->start) : q;
         __m256d ok = lanes_of(m);
         unsigned okbits = m;
@@ -1927,6 +1949,26 @@ bool dead_after(const std::vector<KernelOp>& ops, std::size_t from, int r, int r
 }  // namespace
 
 void prepare_kernel(KernelSetup& s) {
+  // The slice by additions (point_of()): each direction one unit axis of its own, its other
+  // components +0 (a -0 would flip the sign of a zero term).
+  s.axis_slice = true;
+  std::fill(std::begin(s.axis_of), std::end(s.axis_of), -1);
+  for (int a = 0; a < 3; ++a) {
+    const double comp[4] = {s.dir[a].w, s.dir[a].x, s.dir[a].y, s.dir[a].z};
+    int one = -1, zeros = 0;
+    for (int c = 0; c < 4; ++c) {
+      if (comp[c] == 1.0) one = c;
+      zeros += comp[c] == 0.0 && !std::signbit(comp[c]);
+    }
+    if (one < 0 || zeros != 3 || s.axis_of[one] >= 0)
+      s.axis_slice = false;
+    else
+      s.axis_of[one] = a;
+  }
+  s.origin_negative_zero = 0;
+  const double origin[4] = {s.origin.w, s.origin.x, s.origin.y, s.origin.z};
+  for (int c = 0; c < 4; ++c)
+    if (origin[c] == 0.0 && std::signbit(origin[c])) s.origin_negative_zero |= 1u << c;
   std::vector<KernelOp> ops;
   for (int i = 0; i < s.op_count; ++i) {
     const Op& src = s.ops[i];

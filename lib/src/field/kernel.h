@@ -43,6 +43,14 @@ struct KernelSetup {
   Quat start;               ///< Mandelbrot: h0
   Quat origin;              ///< slice: h0 = origin + x d[0] + y d[1] + z d[2]
   Quat dir[3];
+  /// The slice by additions (prepare_kernel() sets it): true when each direction is a unit
+  /// axis of its own (one component 1, the others +0); then component c of the point is the
+  /// coordinate axis_of[c] (0..2; -1: none) plus origin[c], bit for bit what the fused form
+  /// computes for finite coordinates (its other terms add zeros; see point_of() in kernel.cpp
+  /// for an origin component of -0, origin_negative_zero bit c).
+  bool axis_slice = false;
+  int axis_of[4] = {-1, -1, -1, -1};
+  unsigned origin_negative_zero = 0;
   bool escape = true;  ///< escape method (else cut-off)
   int iterations = 1;  ///< N
   double r2 = 1;       ///< R^2
