@@ -400,6 +400,19 @@ TEST(Kernel, EveryPresetMatchesTheScalarReferenceOnEveryTarget) {
   }
 }
 
+// Appends `count` random points of p's box to x, y, z.
+void add_random_points(const Params& p, int count, std::mt19937_64& rng, std::vector<double>& x,
+                       std::vector<double>& y, std::vector<double>& z) {
+  auto in = [&](int axis) {
+    return std::uniform_real_distribution<double>(p.bounds.min[axis], p.bounds.max[axis])(rng);
+  };
+  for (int i = 0; i < count; ++i) {
+    x.push_back(in(0));
+    y.push_back(in(1));
+    z.push_back(in(2));
+  }
+}
+
 // The float output (what Classifier::field writes) is the double output rounded to float, bit
 // for bit, for F and the refinement value, on every target: random points of each preset's box
 // plus points where metrics are 0 or the orbit meets a pole (the special cases' path), in
@@ -418,11 +431,7 @@ TEST(Kernel, TheFloatOutputIsTheDoubleOutputRounded) {
       y.push_back(0);
       z.push_back(0);
     }
-    for (int i = 0; i < 2997; ++i) {
-      x.push_back(std::uniform_real_distribution<double>(p.bounds.min[0], p.bounds.max[0])(rng));
-      y.push_back(std::uniform_real_distribution<double>(p.bounds.min[1], p.bounds.max[1])(rng));
-      z.push_back(std::uniform_real_distribution<double>(p.bounds.min[2], p.bounds.max[2])(rng));
-    }
+    add_random_points(p, 2997, rng, x, y, z);
     for (std::int64_t target : detail::kernel_dispatch_targets()) {
       hwy::SetSupportedTargetsForTest(target);
       for (bool root : {false, true})
@@ -486,11 +495,7 @@ TEST(Kernel, AnAxisAlignedSliceByAdditionsGivesTheFusedFormsValues) {
           y.push_back(b);
           z.push_back(c);
         }
-    for (int i = 0; i < 1000; ++i) {
-      x.push_back(std::uniform_real_distribution<double>(p.bounds.min[0], p.bounds.max[0])(rng));
-      y.push_back(std::uniform_real_distribution<double>(p.bounds.min[1], p.bounds.max[1])(rng));
-      z.push_back(std::uniform_real_distribution<double>(p.bounds.min[2], p.bounds.max[2])(rng));
-    }
+    add_random_points(p, 1000, rng, x, y, z);
     for (std::int64_t target : detail::kernel_dispatch_targets()) {
       hwy::SetSupportedTargetsForTest(target);
       for (bool root : {false, true}) {
