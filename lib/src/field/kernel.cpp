@@ -171,12 +171,12 @@ HWY_INLINE Q point_of(const KernelSetup& s, V x, V y, V z) {
   if (s.axis_slice && HWY_LIKELY(hn::AllTrue(d, hn::IsFinite(hn::Add(hn::Add(x, y), z))))) {
     const V zero_of_signs =
         s.origin_negative_zero ? hn::And(hn::And(x, y), hn::And(z, hn::Set(d, -0.0))) : hn::Zero(d);
-    auto comp = [&](int c, double o) {
-      const V base = (s.origin_negative_zero >> c) & 1 ? zero_of_signs : hn::Set(d, o);
+    auto comp = [&](int c) {
+      const V base = (s.origin_negative_zero >> c) & 1 ? zero_of_signs : hn::Set(d, s.origin[c]);
       const int a = s.axis_of[c];
       return a < 0 ? base : hn::Add(a == 0 ? x : a == 1 ? y : z, base);
     };
-    return {comp(0, s.origin.w), comp(1, s.origin.x), comp(2, s.origin.y), comp(3, s.origin.z)};
+    return {comp(0), comp(1), comp(2), comp(3)};
   }
   return slice_point(x, y, z, broadcast(s.origin), broadcast(s.dir[0]), broadcast(s.dir[1]),
                      broadcast(s.dir[2]));
@@ -847,10 +847,12 @@ HWY_INLINE void values_of_two(const FieldConsts& s, const V (&k)[2], const V (&a
     f[1] = value_formula<kRoot, false>(s, k[1], a[1], b[1]);
     return;
   }
-  f[0] = hn::AllFalse(d, s0) ? value_formula<kRoot, false>(s, k[0], a[0], b[0])
-                             : value_formula<kRoot, true>(s, k[0], a[0], b[0]);
-  f[1] = hn::AllFalse(d, s1) ? value_formula<kRoot, false>(s, k[1], a[1], b[1])
-                             : value_formula<kRoot, true>(s, k[1], a[1], b[1]);
+  auto one = [&](int i, M special) {
+    return hn::AllFalse(d, special) ? value_formula<kRoot, false>(s, k[i], a[i], b[i])
+                                    : value_formula<kRoot, true>(s, k[i], a[i], b[i]);
+  };
+  f[0] = one(0, s0);
+  f[1] = one(1, s1);
 }
 
 #if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL || HWY_TARGET == HWY_AVX2
@@ -1954,11 +1956,10 @@ void prepare_kernel(KernelSetup& s) {
   s.axis_slice = true;
   std::fill(std::begin(s.axis_of), std::end(s.axis_of), -1);
   for (int a = 0; a < 3; ++a) {
-    const double comp[4] = {s.dir[a].w, s.dir[a].x, s.dir[a].y, s.dir[a].z};
     int one = -1, zeros = 0;
     for (int c = 0; c < 4; ++c) {
-      if (comp[c] == 1.0) one = c;
-      zeros += comp[c] == 0.0 && !std::signbit(comp[c]);
+      if (s.dir[a][c] == 1.0) one = c;
+      zeros += s.dir[a][c] == 0.0 && !std::signbit(s.dir[a][c]);
     }
     if (one < 0 || zeros != 3 || s.axis_of[one] >= 0)
       s.axis_slice = false;
@@ -1966,9 +1967,8 @@ void prepare_kernel(KernelSetup& s) {
       s.axis_of[one] = a;
   }
   s.origin_negative_zero = 0;
-  const double origin[4] = {s.origin.w, s.origin.x, s.origin.y, s.origin.z};
   for (int c = 0; c < 4; ++c)
-    if (origin[c] == 0.0 && std::signbit(origin[c])) s.origin_negative_zero |= 1u << c;
+    if (s.origin[c] == 0.0 && std::signbit(s.origin[c])) s.origin_negative_zero |= 1u << c;
   std::vector<KernelOp> ops;
   for (int i = 0; i < s.op_count; ++i) {
     const Op& src = s.ops[i];
