@@ -306,19 +306,27 @@ struct BoxSample {
   int excluded = 0;
 };
 
+// Appends `count` random points of p's box to x, y, z.
+void add_random_points(const Params& p, int count, std::mt19937_64& rng, std::vector<double>& x,
+                       std::vector<double>& y, std::vector<double>& z) {
+  auto in = [&](int axis) {
+    return std::uniform_real_distribution<double>(p.bounds.min[axis], p.bounds.max[axis])(rng);
+  };
+  for (int i = 0; i < count; ++i) {
+    x.push_back(in(0));
+    y.push_back(in(1));
+    z.push_back(in(2));
+  }
+}
+
 BoxSample sample_box(const Params& p, int count, unsigned seed) {
   std::mt19937_64 rng(seed);
   BoxSample s;
+  add_random_points(p, count, rng, s.x, s.y, s.z);
   for (int i = 0; i < count; ++i) {
-    const double x = std::uniform_real_distribution<double>(p.bounds.min[0], p.bounds.max[0])(rng);
-    const double y = std::uniform_real_distribution<double>(p.bounds.min[1], p.bounds.max[1])(rng);
-    const double z = std::uniform_real_distribution<double>(p.bounds.min[2], p.bounds.max[2])(rng);
-    const double f = reference_field<false>(p, x, y, z);
-    const double fused = reference_field<true>(p, x, y, z);
+    const double f = reference_field<false>(p, s.x[i], s.y[i], s.z[i]);
+    const double fused = reference_field<true>(p, s.x[i], s.y[i], s.z[i]);
     const bool conditioned = std::abs(fused - f) <= 1e-11 * std::max(1.0, std::abs(f));
-    s.x.push_back(x);
-    s.y.push_back(y);
-    s.z.push_back(z);
     s.f.push_back(f);
     s.conditioned.push_back(conditioned);
     s.excluded += !conditioned;
@@ -397,19 +405,6 @@ TEST(Kernel, EveryPresetMatchesTheScalarReferenceOnEveryTarget) {
   for (const std::string& name : preset_names()) {
     SCOPED_TRACE(name);
     EXPECT_LT(check_against_reference(preset(name), 4000, seed++), 0.01);
-  }
-}
-
-// Appends `count` random points of p's box to x, y, z.
-void add_random_points(const Params& p, int count, std::mt19937_64& rng, std::vector<double>& x,
-                       std::vector<double>& y, std::vector<double>& z) {
-  auto in = [&](int axis) {
-    return std::uniform_real_distribution<double>(p.bounds.min[axis], p.bounds.max[axis])(rng);
-  };
-  for (int i = 0; i < count; ++i) {
-    x.push_back(in(0));
-    y.push_back(in(1));
-    z.push_back(in(2));
   }
 }
 
