@@ -9,7 +9,7 @@ set -euo pipefail
 packages=(cmake g++ make ccache pkg-config
   libopenvdb-dev libboost-iostreams-dev libtbb-dev libopenmesh-dev libcgal-dev
   libtinygltf-dev libstb-dev nlohmann-json3-dev libgtest-dev lib3mf-dev libzip-dev
-  libmeshoptimizer-dev libpng-dev libhwy-dev clang-16 libfuzzer-16-dev libclang-rt-16-dev llvm-16
+  libpng-dev libhwy-dev clang-16 libfuzzer-16-dev libclang-rt-16-dev llvm-16
   pybind11-dev python3-pybind11 python3-dev python3-numpy python3-pytest blender xvfb xauth
   libopenmpi-dev openmpi-bin
   libcpp-httplib-dev chromium)

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "mesh/collapse.h"
 #include "qjulia/base/error.h"
 #include "qjulia/base/progress.h"
 #include "qjulia/field/params.h"
@@ -189,6 +190,73 @@ TEST(Decimate, ATorusDecimatedHardKeepsItsHole) {
     EXPECT_EQ(topo.components, 1u) << budget;
     EXPECT_LT(out.face_count(), 2000u) << budget;
   }
+}
+
+// The simplifier of the fast method alone: collapses down to what the topology allows.
+TEST(CollapseEdges, ATetrahedronStaysATetrahedron) {
+  TriMesh tetra;
+  tetra.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  tetra.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  ASSERT_TRUE(fixtures::check(tetra).closed_manifold_oriented);
+  qjulia::detail::CollapseOptions opts;
+  opts.target_faces = 1;
+  const auto out = qjulia::detail::collapse_edges(tetra, opts);
+  EXPECT_EQ(out.size(), 4u);  // any collapse would leave two faces on the same three vertices
+}
+
+TEST(CollapseEdges, EveryComponentAndItsGenusSurviveTheSmallestBudget) {
+  // A torus (genus 1), a sphere and a small sphere apart, and a tetrahedron: taken as far down
+  // as the collapses go, each stays a closed surface of its own genus, turned the same way.
+  TriMesh mesh = fixtures::torus(60, 30);
+  fixtures::append(mesh, fixtures::icosphere(3, 0.5, {4, 0, 0}));
+  fixtures::append(mesh, fixtures::icosphere(2, 0.05, {0, 4, 0}));
+  TriMesh tetra;
+  tetra.positions = {{0, 0, 4}, {0.1f, 0, 4}, {0, 0.1f, 4}, {0, 0, 4.1f}};
+  tetra.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  fixtures::append(mesh, tetra);
+  const auto before = fixtures::check(mesh);
+  ASSERT_TRUE(before.closed_manifold_oriented);
+  ASSERT_EQ(before.components, 4u);
+  qjulia::detail::CollapseOptions opts;
+  opts.target_faces = 1;
+  TriMesh out;
+  out.positions = mesh.positions;
+  out.triangles = qjulia::detail::collapse_edges(mesh, opts);
+  const auto after = fixtures::check(out);
+  EXPECT_TRUE(after.closed_manifold_oriented);
+  EXPECT_EQ(after.components, before.components);
+  EXPECT_EQ(after.euler, before.euler);
+  // A sphere goes down to a tetrahedron, the torus to a few dozen faces: far below the input.
+  EXPECT_LT(out.face_count(), 200u) << out.face_count();
+  EXPECT_GT(fixtures::volume(out), 0.0);
+}
+
+TEST(CollapseEdges, LockedVerticesStayAndTheErrorBoundStopsTheCollapses) {
+  const TriMesh sphere = fixtures::icosphere(4);  // 5120 faces
+  std::vector<uint8_t> locked(sphere.positions.size(), 0);
+  for (std::size_t v = 0; v < locked.size(); ++v) locked[v] = sphere.positions[v][2] > 0.5f;
+  qjulia::detail::CollapseOptions opts;
+  opts.target_faces = 100;
+  opts.locked = &locked;
+  const auto out = qjulia::detail::collapse_edges(sphere, opts);
+  std::vector<uint8_t> used(sphere.positions.size(), 0);
+  for (const auto& t : out)
+    for (uint32_t v : t) used[v] = 1;
+  for (std::size_t v = 0; v < locked.size(); ++v)
+    if (locked[v]) {
+      EXPECT_TRUE(used[v]) << v;
+    }
+  // With a bound of 1e-3 of the radius, far fewer collapses than without one are allowed.
+  opts.locked = nullptr;
+  const auto free_run = qjulia::detail::collapse_edges(sphere, opts);
+  opts.max_error = 1e-3;
+  const auto bounded = qjulia::detail::collapse_edges(sphere, opts);
+  EXPECT_LE(free_run.size(), 100u);
+  EXPECT_GT(bounded.size(), 1000u) << bounded.size();
+  TriMesh b;
+  b.positions = sphere.positions;
+  b.triangles = bounded;
+  EXPECT_LT(max_distance_to_unit_sphere(b), 0.01);
 }
 
 TEST(Decimate, BudgetAboveTheFaceCountReturnsTheInput) {

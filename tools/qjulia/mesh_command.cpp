@@ -40,12 +40,12 @@ mesh:
   --color iterations|basin|none   per-vertex colours
   --faces N                  decimate to at most N faces, 4..1000000000
   --max-error E              decimate within distance E (model units), 1e-09..1000000
-  --decimate fast|quality    how: fast (the default), meshoptimizer under a topology guard that
-                             stops above a budget where collapsing more would change the
-                             components or the genus; quality, OpenMesh's Decimater, which
-                             keeps the genus by its own test and reaches such budgets, on one
-                             thread (several times slower; for --max-error alone the fast
-                             method is better: OpenMesh bounds only the input's vertices)
+  --decimate fast|quality    how: fast (the default), edge collapses that keep the components
+                             and the genus, in parallel; without --max-error they stop above a
+                             budget that would move the surface by more than 1%% of its size;
+                             quality, OpenMesh's Decimater, a lower error at the same face
+                             count, on one thread (4-20x slower; for --max-error alone the
+                             fast method is better: OpenMesh bounds only the input's vertices)
   --min-component V          drop components of volume below V (model units^3), 0..1e+18
   --clip nx,ny,nz,d          keep n.x <= d, closed by a flat cap (repeatable); components
                              -1000000..1000000, n not zero
@@ -218,9 +218,9 @@ void finish_mesh_command(MeshCommand& cmd, RunStats& stats, const TriMesh* mesh,
     const bool fast = mp.decimate == Decimation::kFast;
     if (mp.faces && d.faces_after > static_cast<std::size_t>(*mp.faces)) {
       const char* why =
-          fast ? (mp.max_error ? "collapsing more edges would change the topology or exceed "
-                                 "--max-error"
-                               : "collapsing more edges would change the topology")
+          fast ? (mp.max_error ? "no collapse left keeps the topology within --max-error"
+                               : "no collapse left keeps the topology and moves the surface by "
+                                 "less than 1% of its bounding box's diagonal")
                : (mp.max_error ? "no collapse left keeps the genus, stays within --max-error and "
                                  "turns a face by less than 45 degrees"
                                : "no collapse left keeps the genus and turns a face by less than "
@@ -228,9 +228,7 @@ void finish_mesh_command(MeshCommand& cmd, RunStats& stats, const TriMesh* mesh,
       std::fprintf(stderr,
                    "%s: note: decimation stopped at %zu faces, above the %lld asked for (%s)%s\n",
                    cmd.program.c_str(), d.faces_after, *mp.faces, why,
-                   fast ? "; --decimate quality keeps the topology by its own test and can go "
-                          "further, more slowly"
-                        : "");
+                   fast && !mp.max_error ? "; a --max-error above that lets it go further" : "");
     } else {
       std::fprintf(stderr,
                    "%s: note: the decimated mesh is %.3g from the input, above --max-error%s\n",

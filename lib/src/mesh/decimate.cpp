@@ -1,26 +1,22 @@
-// Decimation: meshoptimizer's quadric simplifier, made topology-safe, run in parallel on
-// spatial chunks, plus a sample-based Hausdorff check.
+// Decimation: edge collapses by quadric error that keep the topology (mesh/collapse.h), run in
+// parallel on spatial chunks, plus a sample-based Hausdorff check.
 //
-// meshopt_simplify (0.18) collapses edges by quadric error and rejects normal flips, but it does
-// not test the link condition, so a collapse can create a non-manifold edge (mostly a "fin": two
-// coincident faces of opposite orientation after a valence-3 vertex is collapsed). We remove fins
-// (which leaves the surface closed) and verify the result; where it is still not manifold, the
-// input faces around the offending vertices are frozen: cut out before simplifying again with
-// meshopt_SimplifyLockBorder (the rim of the hole is then locked and survives exactly) and put
-// back afterwards. The frozen region grows until the result is manifold.
+// The collapses test the link condition and reject face flips, so a closed manifold stays closed
+// and manifold and keeps its components and Euler characteristic. The result is still verified;
+// where it is not manifold (an input the conditions do not cover), the input faces around the
+// offending vertices are frozen (their vertices are never removed) and the pass is made again,
+// the frozen region growing until the result is manifold.
 //
-// meshoptimizer is single-threaded (~1M faces/s here). Large meshes are therefore cut into
-// chunks along a Morton curve, simplified in parallel with their cut edges locked; a second,
-// small pass over the joined result removes the full-resolution seams. The chunk count follows
-// from the face count alone, so the result depends only on the input and the options, never on
-// the threads.
+// One pass is serial. Large meshes are therefore cut into chunks along a Morton curve,
+// simplified in parallel with the vertices around their cuts locked; a second, small pass over
+// the joined result removes the full-resolution seams. The chunk count follows from the face
+// count alone, so the result depends only on the input and the options, never on the threads.
 //
-// Neither guard sees a tunnel closed or a small component collapsed away: with a face budget, a
-// result is kept only when it has the input's components and Euler characteristic and reaches
-// its budget; else the mesh is decimated in stages from the last result kept (decimate()).
+// Under a face budget the result must keep the input's components and Euler characteristic; if
+// a pass does not all the same, the mesh is decimated in stages from the last result kept
+// (decimate()).
 #include "qjulia/mesh/decimate.h"
 
-#include <meshoptimizer.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
@@ -33,6 +29,7 @@
 
 #include "base/geometry.h"
 #include "base/mesh_check.h"
+#include "mesh/collapse.h"
 #include "mesh/decimate_openmesh.h"
 #include "mesh/hausdorff.h"
 #include "mesh/stage_progress.h"
@@ -46,6 +43,22 @@ namespace {
 constexpr std::size_t kChunkFaces = 150'000;  // faces per chunk; below 2x this, one pass
 constexpr std::size_t kMinChunks = 4;         // chunks of a mesh of 2-4 times kChunkFaces
 constexpr int kMaxAttempts = 12;
+// Without an error bound, the collapses' quadric error is bounded by this fraction of the
+// bounding box's diagonal (half of it in each of the two stages).
+constexpr double kShapeBound = 0.02;
+
+/// The length of the diagonal of the bounding box of mesh's vertices.
+double diagonal(const TriMesh& mesh) {
+  std::array<double, 3> lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (const auto& p : mesh.positions)
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], double(p[k]));
+      hi[k] = std::max(hi[k], double(p[k]));
+    }
+  double d2 = 0;
+  for (int k = 0; k < 3; ++k) d2 += (hi[k] - lo[k]) * (hi[k] - lo[k]);
+  return std::sqrt(d2);
+}
 
 /// The topology a decimation must keep: vertex-connected components and the Euler
 /// characteristic V - E + F (of the referenced vertices).
@@ -67,31 +80,23 @@ Shape shape_of(const TriMesh& mesh, std::size_t edges) {
   return s;
 }
 
-/// One meshopt pass leaving the faces marked in `frozen` untouched; returns the triangles
-/// (indexing mesh.positions) with fins removed.
+/// One pass of edge collapses leaving the faces marked in `frozen` untouched (their vertices are
+/// never removed); returns the triangles (indexing mesh.positions) with fins removed.
 std::vector<std::array<uint32_t, 3>> simplify_once(const TriMesh& mesh,
                                                    const std::vector<uint8_t>& frozen,
-                                                   std::size_t target_faces, float rel_error) {
-  std::vector<unsigned int> indices;
-  indices.reserve(mesh.triangles.size() * 3);
+                                                   std::size_t target_faces, double abs_error,
+                                                   const CancelToken* cancel) {
+  std::vector<uint8_t> locked(mesh.positions.size(), 0);
+  for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
+    if (frozen[f])
+      for (uint32_t v : mesh.triangles[f]) locked[v] = 1;
+  detail::CollapseOptions o;
+  o.target_faces = target_faces;
+  o.max_error = abs_error;
+  o.locked = &locked;
+  o.cancel = cancel;
   TriMesh kept;
-  for (std::size_t f = 0; f < mesh.triangles.size(); ++f) {
-    const auto& t = mesh.triangles[f];
-    if (!frozen.empty() && frozen[f])
-      kept.triangles.push_back(t);
-    else
-      indices.insert(indices.end(), t.begin(), t.end());
-  }
-  const std::size_t target =
-      std::min(indices.size(), target_faces > kept.triangles.size()
-                                   ? (target_faces - kept.triangles.size()) * 3
-                                   : std::size_t(0));
-  std::vector<unsigned int> out(indices.size());
-  std::size_t n = meshopt_simplify(
-      out.data(), indices.data(), indices.size(), &mesh.positions[0][0], mesh.positions.size(),
-      sizeof(mesh.positions[0]), target, rel_error, meshopt_SimplifyLockBorder, nullptr);
-  kept.triangles.reserve(kept.triangles.size() + n / 3);
-  for (std::size_t i = 0; i < n; i += 3) kept.triangles.push_back({out[i], out[i + 1], out[i + 2]});
+  kept.triangles = detail::collapse_edges(mesh, o);
   detail::drop_repeated_and_fins(kept);
   return std::move(kept.triangles);
 }
@@ -103,9 +108,6 @@ std::vector<std::array<uint32_t, 3>> simplify_manifold(const TriMesh& mesh,
                                                        std::size_t target_faces, double abs_error,
                                                        const CancelToken* cancel, bool* ok,
                                                        const std::vector<uint32_t>& pinned = {}) {
-  const float scale = meshopt_simplifyScale(&mesh.positions[0][0], mesh.positions.size(),
-                                            sizeof(mesh.positions[0]));
-  const float rel_error = static_cast<float>(std::min(abs_error / std::max(scale, 1e-30f), 1e30));
   std::vector<uint8_t> frozen(mesh.triangles.size(), 0);
   std::vector<uint8_t> hot(mesh.positions.size(), 0);
   std::unique_ptr<detail::VertexFaces> stars;
@@ -143,7 +145,7 @@ std::vector<std::array<uint32_t, 3>> simplify_manifold(const TriMesh& mesh,
   TriMesh out;
   for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
     throw_if_cancelled(cancel);
-    out.triangles = simplify_once(mesh, frozen, target_faces, rel_error);
+    out.triangles = simplify_once(mesh, frozen, target_faces, abs_error, cancel);
     throw_if_cancelled(cancel);
     out.positions.clear();  // check_topology only needs the vertex count
     out.positions.resize(mesh.positions.size());
@@ -236,8 +238,9 @@ struct Simplified {
 
 /// One decimation of `mesh` to the budget and the bound `abs_error`, keeping `pinned` input
 /// vertices and their faces. Fast method: stage 1 (chunks, when `use_chunks`) and stage 2 (the
-/// whole mesh) with meshoptimizer's quadric bound; the result is closed and manifold wherever the
-/// chunk-wise checks could see. Quality method: OpenMesh with abs_error as its Hausdorff bound.
+/// whole mesh), each collapse within half of `abs_error` (quadric error); the result is closed and
+/// manifold wherever the chunk-wise checks could see. Quality method: OpenMesh with abs_error as
+/// its Hausdorff bound.
 Simplified simplify_all(const TriMesh& mesh, const DecimateOptions& opts, double abs_error,
                         bool use_chunks, const std::vector<uint8_t>& pinned) {
   const std::size_t nv = mesh.positions.size();
@@ -277,7 +280,7 @@ Simplified simplify_all(const TriMesh& mesh, const DecimateOptions& opts, double
   detail::report_progress(opts.progress, opts.cancel, 0.4);
   // Stage 2 (or the only stage): the whole mesh.
   if (!opts.faces || work.face_count() > budget) {
-    // Compact first so meshoptimizer's per-vertex work follows the smaller mesh.
+    // Compact first so the per-vertex work follows the smaller mesh.
     compact();
     std::vector<uint32_t> work_pinned;
     if (!pinned.empty())
@@ -332,14 +335,17 @@ Outcome decimate_once(const TriMesh& mesh, const DecimateOptions& opts,
                       detail::Hausdorff& hausdorff) {
   const std::size_t nv = mesh.positions.size();
   const std::size_t budget = opts.faces ? static_cast<std::size_t>(*opts.faces) : std::size_t(0);
-  // meshoptimizer's error is the quadric (distance to planes) error, not the Hausdorff distance:
-  // close to it on smooth surfaces, 1.6-1.8x smaller on bumpy ones. The first round uses the
+  // The collapses' error is the quadric (distance to planes) error, not the Hausdorff distance:
+  // close to it on smooth surfaces, smaller on bumpy ones. The first round uses the
   // bound (half per stage); when the measured distance exceeds it, the bound is scaled by
   // 0.85 * max_error / measured and the work redone.
   Outcome o;
   DecimateReport& rep = o.rep;
   rep.faces_before = mesh.face_count();
   double abs_error = opts.max_error ? *opts.max_error : 1e30;
+  // A face budget alone: the collapses keep the topology, and this bound keeps the shape where
+  // the budget is below what the surface can hold.
+  if (!opts.max_error) abs_error = kShapeBound * diagonal(mesh);
   Simplified& best = o.s;
   bool use_chunks = opts.method == DecimateMethod::kFast && mesh.face_count() >= 2 * kChunkFaces;
   std::vector<uint8_t> pinned;  // input vertices kept with their stars (self-intersections)
@@ -410,26 +416,20 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
   hopts.cancel = opts.cancel;
   detail::Hausdorff hausdorff(mesh, hopts);  // keeps the input's BVH between attempts
 
-  // The fast method's collapses do not test the link condition: below the face count a surface
-  // can hold, they close tunnels, merge or drop components (a genus-12 surface asked for 20 faces
-  // became a tetrahedron) or, when the repairs of the guard freeze large parts, leave far more
-  // faces than asked where the collapses went on (asked for 1000 of 24,124 faces, classic-julia
-  // at 64 kept 3,428 and lost a third of its volume). So a face budget is met only by a result
-  // that keeps the components and the Euler characteristic of the input and reaches its budget.
-  // When the one pass to the budget does not, the mesh is decimated in stages instead, each from
-  // the last one kept, 30% fewer faces a stage (10% after a stage fails, at most eight such),
-  // until the budget or until a stage of 10% fails or removes nothing; the report then says
-  // whether the budget was reached. (With max_error, a pass that keeps the topology but stops
-  // short of the budget is kept: the bound stopped it.)
+  // The fast method's collapses keep the topology by the link condition, and without max_error
+  // its shape bound (kShapeBound) stops them where a budget is below what the surface can hold
+  // (meshoptimizer's collapses, used before, closed tunnels and dropped components there: a
+  // genus-12 surface asked for 20 faces became a tetrahedron). A result is kept when it has the
+  // components and the Euler characteristic of the input, reached its budget or not (the report
+  // says which). Should a pass change them all the same (an input the checks do not cover), the
+  // mesh is decimated in stages instead, each from the last one kept, 30% fewer faces a stage
+  // (10% after a stage fails, at most eight such), until the budget or until a stage of 10%
+  // fails or removes nothing.
   const bool guard = opts.faces && opts.method == DecimateMethod::kFast;
   Outcome out = decimate_once(mesh, opts, hausdorff);  // reports progress up to 0.7
   if (guard) {
     const Shape input = shape_of(mesh, detail::check_topology(mesh).edges);
-    // With an error bound, the bound keeps the shape's geometry and may stop short of the
-    // budget; without one, a pass that stops short of it has gone wrong elsewhere.
-    auto kept = [&](const Outcome& o, std::size_t asked) {
-      return o.shape == input && (opts.max_error || o.rep.faces_after <= asked);
-    };
+    auto kept = [&](const Outcome& o, std::size_t) { return o.shape == input; };
     if (!kept(out, budget)) {
       out = Outcome();              // its memory, freed
       std::optional<Outcome> last;  // the last stage kept; none: the input

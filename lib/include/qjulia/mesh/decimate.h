@@ -12,15 +12,16 @@ namespace qjulia {
 /// How decimate() simplifies. Both keep a closed manifold mesh closed and manifold, use input
 /// vertices only and report the same measured Hausdorff distance.
 enum class DecimateMethod {
-  /// meshoptimizer's quadric simplifier under qjulia's topology guard, in parallel chunks: about
-  /// 1.2M input faces per second on two cores. Under a face budget the result keeps the input's
-  /// components and Euler characteristic: when one pass does not, the mesh is decimated in
-  /// stages, which stop above the budget where collapsing more would change them (a few times
-  /// slower). The default.
+  /// qjulia's edge collapses by quadric error, in parallel chunks: each keeps the topology (the
+  /// link condition) and turns no face over, so the result keeps the input's components and
+  /// Euler characteristic; about 1M input faces per second on two cores. With a face budget and
+  /// no max_error, no collapse moves the surface by more than 1% of the bounding box's diagonal
+  /// (quadric error, per pass): below what the surface can hold, the result stops above the
+  /// budget. The default.
   kFast,
   /// OpenMesh's Decimater (ModQuadric order, ModNormalFlipping at 45 degrees, ModHausdorff with
-  /// max_error): keeps the genus, reaches face budgets the fast method cannot on fractal meshes
-  /// and gives a lower error at the same face count; single-threaded, 4-15x the CPU time.
+  /// max_error): keeps the genus and gives a lower error at the same face count on fractal
+  /// meshes; single-threaded, 4-20x the CPU time.
   kQuality,
 };
 
@@ -42,8 +43,8 @@ struct DecimateReport {
   std::size_t faces_before = 0;
   std::size_t faces_after = 0;
   double hausdorff = 0.0;  ///< two-sided distance between input and output, model units
-  /// false when the budget could not be met within the bound (or, by the fast method, without
-  /// changing the components or the Euler characteristic)
+  /// false when the budget could not be met within the bound (the fast method's shape bound
+  /// without max_error) keeping the components and the Euler characteristic
   bool target_reached = true;
   bool closed = true;    ///< the result has no boundary or non-manifold edge (as a closed input)
   bool manifold = true;  ///< the result has no non-manifold edge or vertex and is oriented
