@@ -36,11 +36,11 @@ constexpr double kSampleBrickBytes = 1330;
 constexpr double kSampleCellBytes = 14;
 constexpr double kDenseBrickBytes = 3600;  // a brick of the dense path (all 729 values)
 constexpr double kVdbBrickBytes = 2400;    // a VDB leaf with its values and masks
-// The simplifier's copies and the Hausdorff tree; with the stages of a face budget it cannot reach
-// in one pass, the last stage kept too: newton-cubic at 256 (2.06M faces) asked for 200,000 peaked
-// 370 MB above the run without decimation (180 bytes a face), classic-julia at 256 asked for
-// 44,000 (one pass) 58 MB (132 bytes a face).
-constexpr double kDecimatePerFace = 180;
+// The simplifier's copies and the Hausdorff tree, per face of the whole mesh: above the run
+// without decimation, newton-cubic asked for 200,000 faces at 256 (2.06M faces) peaked 220 MiB
+// higher (112 bytes a face), asked for 1,000,000 at 512 (9.9M) 791 MiB (84 bytes); classic-julia
+// asked for 44,000 at 256 (0.44M) 45 MiB (106 bytes), for 200,000 at 512 (1.8M) 174 MiB (101).
+constexpr double kDecimatePerFace = 120;
 // Thickening re-meshes the whole surface on a level set whose voxel is a quarter of the
 // thickness: its faces are the mesh's faces times the square of the ratio of the two voxels
 // (classic-julia at 64 thickened by 0.4 to 0.0125, 5,860 to 5,446,164 faces, within 15% of
