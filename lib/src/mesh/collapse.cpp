@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <string>
 
+#include "qjulia/base/error.h"
 #include "qjulia/base/progress.h"
 
 namespace qjulia::detail {
@@ -347,6 +349,10 @@ class Collapser {
 
 std::vector<std::array<uint32_t, 3>> collapse_edges(const TriMesh& mesh,
                                                     const CollapseOptions& opts) {
+  // A face's corners are numbered in 32 bits, one value kept for "none".
+  if (mesh.triangles.size() > (kNone - 1) / 3)
+    throw TooLarge("decimate: a pass over more than " + std::to_string((kNone - 1) / 3) +
+                   " faces at once is not supported, got " + std::to_string(mesh.triangles.size()));
   return Collapser(mesh, opts).run();
 }
 
