@@ -193,10 +193,17 @@ TEST(Decimate, ATorusDecimatedHardKeepsItsHole) {
 }
 
 // The simplifier of the fast method alone: collapses down to what the topology allows.
+/// The tetrahedron with corners at `at` and `size` along each axis from it, faces outward.
+TriMesh tetrahedron(std::array<float, 3> at, float size) {
+  TriMesh t;
+  t.positions = {at, at, at, at};
+  for (int k = 0; k < 3; ++k) t.positions[k + 1][k] += size;
+  t.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  return t;
+}
+
 TEST(CollapseEdges, ATetrahedronStaysATetrahedron) {
-  TriMesh tetra;
-  tetra.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
-  tetra.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  const TriMesh tetra = tetrahedron({0, 0, 0}, 1);
   ASSERT_TRUE(fixtures::check(tetra).closed_manifold_oriented);
   qjulia::detail::CollapseOptions opts;
   opts.target_faces = 1;
@@ -210,10 +217,7 @@ TEST(CollapseEdges, EveryComponentAndItsGenusSurviveTheSmallestBudget) {
   TriMesh mesh = fixtures::torus(60, 30);
   fixtures::append(mesh, fixtures::icosphere(3, 0.5, {4, 0, 0}));
   fixtures::append(mesh, fixtures::icosphere(2, 0.05, {0, 4, 0}));
-  TriMesh tetra;
-  tetra.positions = {{0, 0, 4}, {0.1f, 0, 4}, {0, 0.1f, 4}, {0, 0, 4.1f}};
-  tetra.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
-  fixtures::append(mesh, tetra);
+  fixtures::append(mesh, tetrahedron({0, 0, 4}, 0.1f));
   const auto before = fixtures::check(mesh);
   ASSERT_TRUE(before.closed_manifold_oriented);
   ASSERT_EQ(before.components, 4u);

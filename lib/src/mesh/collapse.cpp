@@ -1,9 +1,9 @@
 #include "mesh/collapse.h"
 
 #include <algorithm>
-#include <cmath>
 #include <string>
 
+#include "base/geometry.h"
 #include "qjulia/base/error.h"
 #include "qjulia/base/progress.h"
 
@@ -29,7 +29,7 @@ struct Quadric {
     w += o.w;
   }
   /// The plane n.x + d = 0 (n of length 1) with weight `area`.
-  void add_plane(const double n[3], double d, double area) {
+  void add_plane(const Vec3d& n, double d, double area) {
     a00 += area * n[0] * n[0];
     a01 += area * n[0] * n[1];
     a02 += area * n[0] * n[2];
@@ -42,20 +42,12 @@ struct Quadric {
     c += area * d * d;
     w += area;
   }
-  double at(const double* p) const {
+  double at(const Vec3d& p) const {
     const double x = p[0], y = p[1], z = p[2];
     return x * (a00 * x + 2 * (a01 * y + a02 * z + b0)) + y * (a11 * y + 2 * (a12 * z + b1)) +
            z * (a22 * z + 2 * b2) + c;
   }
 };
-
-void cross(const double* a, const double* b, const double* c, double* n) {
-  const double u[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-  const double v[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
-  n[0] = u[1] * v[2] - u[2] * v[1];
-  n[1] = u[2] * v[0] - u[0] * v[2];
-  n[2] = u[0] * v[1] - u[1] * v[0];
-}
 
 class Collapser {
  public:
@@ -66,7 +58,7 @@ class Collapser {
         alive_(tri_.size(), 1),
         head_(nv_, kNone),
         next_(3 * tri_.size(), kNone),
-        pos_(3 * nv_),
+        pos_(nv_),
         q_(nv_),
         key_(nv_, 0),
         target_(nv_, kNone),
@@ -74,8 +66,7 @@ class Collapser {
         removed_(nv_, 0),
         mark_(nv_, 0),
         faces_(tri_.size()) {
-    for (std::size_t v = 0; v < nv_; ++v)
-      for (int k = 0; k < 3; ++k) pos_[3 * v + k] = mesh.positions[v][k];
+    for (std::size_t v = 0; v < nv_; ++v) pos_[v] = to_vec3d(mesh.positions[v]);
     for (std::size_t f = 0; f < tri_.size(); ++f) {
       const auto& t = tri_[f];
       for (int k = 0; k < 3; ++k) {
@@ -83,13 +74,12 @@ class Collapser {
         next_[c] = head_[t[k]];
         head_[t[k]] = c;
       }
-      double n[3];
-      cross(p(t[0]), p(t[1]), p(t[2]), n);
-      const double len = std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+      const Vec3d n = cross(p(t[1]) - p(t[0]), p(t[2]) - p(t[0]));
+      const double len = length(n);
       if (!(len > 0)) continue;
-      for (double& x : n) x /= len;
-      const double d = -(n[0] * p(t[0])[0] + n[1] * p(t[0])[1] + n[2] * p(t[0])[2]);
-      for (int k = 0; k < 3; ++k) q_[t[k]].add_plane(n, d, 0.5 * len);
+      const Vec3d unit = normalized(n);
+      const double d = -dot(unit, p(t[0]));
+      for (int k = 0; k < 3; ++k) q_[t[k]].add_plane(unit, d, 0.5 * len);
     }
   }
 
@@ -122,7 +112,7 @@ class Collapser {
   }
 
  private:
-  const double* p(uint32_t v) const { return &pos_[3 * v]; }
+  const Vec3d& p(uint32_t v) const { return pos_[v]; }
 
   template <class F>
   void each_face(uint32_t v, F&& fn) const {
@@ -173,12 +163,9 @@ class Collapser {
       mark_[a] = s1;
       mark_[b] = s1;
       if (flips || a == v || b == v) return;
-      double before[3], after[3];
-      cross(p(u), p(a), p(b), before);
-      cross(p(v), p(a), p(b), after);
-      const double dot = before[0] * after[0] + before[1] * after[1] + before[2] * after[2];
-      const double len2 = after[0] * after[0] + after[1] * after[1] + after[2] * after[2];
-      flips = !(dot > 0) || !(len2 > 0);
+      const Vec3d before = cross(p(a) - p(u), p(b) - p(u));
+      const Vec3d after = cross(p(a) - p(v), p(b) - p(v));
+      flips = !(dot(before, after) > 0) || !(dot(after, after) > 0);
     });
     if (flips || mark_[v] != s1) return false;  // a face turned over, or not neighbours
     // The link condition: u and v share exactly two neighbours, a and b (the third corners of
@@ -331,7 +318,7 @@ class Collapser {
   std::vector<std::array<uint32_t, 3>> tri_;
   std::vector<uint8_t> alive_;
   std::vector<uint32_t> head_, next_;  // each vertex's corners, as a list
-  std::vector<double> pos_;
+  std::vector<Vec3d> pos_;
   std::vector<Quadric> q_;
   std::vector<double> key_;
   std::vector<uint32_t> target_, slot_;

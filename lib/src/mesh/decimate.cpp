@@ -47,17 +47,15 @@ constexpr int kMaxAttempts = 12;
 // bounding box's diagonal (half of it in each of the two stages).
 constexpr double kShapeBound = 0.02;
 
-/// The length of the diagonal of the bounding box of mesh's vertices.
-double diagonal(const TriMesh& mesh) {
-  std::array<double, 3> lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+/// The bounding box of mesh's vertices: its lower and upper corners.
+std::array<detail::Vec3d, 2> bounds(const TriMesh& mesh) {
+  detail::Vec3d lo{{1e300, 1e300, 1e300}}, hi{{-1e300, -1e300, -1e300}};
   for (const auto& p : mesh.positions)
     for (int k = 0; k < 3; ++k) {
       lo[k] = std::min(lo[k], double(p[k]));
       hi[k] = std::max(hi[k], double(p[k]));
     }
-  double d2 = 0;
-  for (int k = 0; k < 3; ++k) d2 += (hi[k] - lo[k]) * (hi[k] - lo[k]);
-  return std::sqrt(d2);
+  return {lo, hi};
 }
 
 /// The topology a decimation must keep: vertex-connected components and the Euler
@@ -80,16 +78,13 @@ Shape shape_of(const TriMesh& mesh, std::size_t edges) {
   return s;
 }
 
-/// One pass of edge collapses leaving the faces marked in `frozen` untouched (their vertices are
-/// never removed); returns the triangles (indexing mesh.positions) with fins removed.
+/// One pass of edge collapses that never removes the vertices marked in `locked` (so the faces
+/// holding only such vertices stay as they are); returns the triangles (indexing mesh.positions)
+/// with fins removed.
 std::vector<std::array<uint32_t, 3>> simplify_once(const TriMesh& mesh,
-                                                   const std::vector<uint8_t>& frozen,
+                                                   const std::vector<uint8_t>& locked,
                                                    std::size_t target_faces, double abs_error,
                                                    const CancelToken* cancel) {
-  std::vector<uint8_t> locked(mesh.positions.size(), 0);
-  for (std::size_t f = 0; f < mesh.triangles.size(); ++f)
-    if (frozen[f])
-      for (uint32_t v : mesh.triangles[f]) locked[v] = 1;
   detail::CollapseOptions o;
   o.target_faces = target_faces;
   o.max_error = abs_error;
@@ -109,7 +104,7 @@ std::vector<std::array<uint32_t, 3>> simplify_manifold(const TriMesh& mesh,
                                                        const CancelToken* cancel, bool* ok,
                                                        const std::vector<uint32_t>& pinned = {}) {
   std::vector<uint8_t> frozen(mesh.triangles.size(), 0);
-  std::vector<uint8_t> hot(mesh.positions.size(), 0);
+  std::vector<uint8_t> locked(mesh.positions.size(), 0);  // the frozen faces' vertices
   std::unique_ptr<detail::VertexFaces> stars;
   // Freezes the faces around `seeds` and `rings` rings beyond.
   auto freeze = [&](std::vector<uint32_t> ring, int rings) {
@@ -122,8 +117,8 @@ std::vector<std::array<uint32_t, 3>> simplify_manifold(const TriMesh& mesh,
           if (frozen[f]) continue;
           frozen[f] = 1;
           for (uint32_t w : mesh.triangles[f])
-            if (!hot[w]) {
-              hot[w] = 1;
+            if (!locked[w]) {
+              locked[w] = 1;
               next.push_back(w);
             }
         }
@@ -145,7 +140,7 @@ std::vector<std::array<uint32_t, 3>> simplify_manifold(const TriMesh& mesh,
   TriMesh out;
   for (int attempt = 0; attempt < kMaxAttempts; ++attempt) {
     throw_if_cancelled(cancel);
-    out.triangles = simplify_once(mesh, frozen, target_faces, abs_error, cancel);
+    out.triangles = simplify_once(mesh, locked, target_faces, abs_error, cancel);
     throw_if_cancelled(cancel);
     out.positions.clear();  // check_topology only needs the vertex count
     out.positions.resize(mesh.positions.size());
@@ -174,12 +169,8 @@ std::vector<std::array<uint32_t, 3>> simplify_chunks(const TriMesh& mesh, double
                                                      const CancelToken* cancel) {
   const std::size_t nf = mesh.triangles.size();
   const std::size_t chunks = std::max(kMinChunks, (nf + kChunkFaces - 1) / kChunkFaces);
-  std::array<double, 3> lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
-  for (const auto& p : mesh.positions)
-    for (int k = 0; k < 3; ++k) {
-      lo[k] = std::min(lo[k], double(p[k]));
-      hi[k] = std::max(hi[k], double(p[k]));
-    }
+  const auto box = bounds(mesh);
+  const detail::Vec3d &lo = box[0], &hi = box[1];
   const double extent = std::max({hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 1e-30});
   const double to_grid = double((1 << 21) - 1) / (3.0 * extent);
   std::vector<std::pair<uint64_t, uint32_t>> order(nf);
@@ -345,7 +336,10 @@ Outcome decimate_once(const TriMesh& mesh, const DecimateOptions& opts,
   double abs_error = opts.max_error ? *opts.max_error : 1e30;
   // A face budget alone: the collapses keep the topology, and this bound keeps the shape where
   // the budget is below what the surface can hold.
-  if (!opts.max_error) abs_error = kShapeBound * diagonal(mesh);
+  if (!opts.max_error) {
+    const auto box = bounds(mesh);
+    abs_error = kShapeBound * detail::length(box[1] - box[0]);
+  }
   Simplified& best = o.s;
   bool use_chunks = opts.method == DecimateMethod::kFast && mesh.face_count() >= 2 * kChunkFaces;
   std::vector<uint8_t> pinned;  // input vertices kept with their stars (self-intersections)
@@ -429,8 +423,7 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
   Outcome out = decimate_once(mesh, opts, hausdorff);  // reports progress up to 0.7
   if (guard) {
     const Shape input = shape_of(mesh, detail::check_topology(mesh).edges);
-    auto kept = [&](const Outcome& o, std::size_t) { return o.shape == input; };
-    if (!kept(out, budget)) {
+    if (!(out.shape == input)) {
       out = Outcome();              // its memory, freed
       std::optional<Outcome> last;  // the last stage kept; none: the input
       double step = 0.7;
@@ -457,7 +450,7 @@ TriMesh decimate(const TriMesh& mesh, const DecimateOptions& opts, DecimateRepor
         };
         o.progress = sub_progress(forward, done(from.face_count()), done(asked));
         Outcome tried = decimate_once(from, o, hausdorff);
-        if (kept(tried, asked) && tried.rep.faces_after < from.face_count()) {
+        if (tried.shape == input && tried.rep.faces_after < from.face_count()) {
           last = std::move(tried);
           if (last->rep.faces_after <= budget) break;
         } else if (step < 0.9) {
