@@ -294,6 +294,13 @@ BrickPlan plan_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
   BrickPlan out;
   const int base[3] = {br.at.x * kBrick, br.at.y * kBrick, br.at.z * kBrick};
   Lookup lookup(around);
+  // The vertices' positions (the first pass's, out of cache by now) asked for at once.
+  for (int dir = 0; dir < 8; ++dir)
+    if (around.codes[dir] && around.positions[dir]) {
+      const char* p = reinterpret_cast<const char*>(around.positions[dir]);
+      const std::size_t bytes = around.codes[dir]->size() * sizeof(std::array<float, 3>);
+      for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(p + b);
+    }
   auto point_of = [&](int code) {
     const auto [dir, index] = lookup(code);
     const std::array<float, 3>& p = around.positions[dir][index];

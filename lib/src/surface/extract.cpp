@@ -28,7 +28,7 @@ namespace qjulia {
 namespace {
 
 // Bricks with at most this many vertices (owned and foreign) pair their half-edges in a
-// matrix of counts (kPairingSlots^2 bytes a thread), the others in a hash table.
+// matrix of counts (2 kPairingSlots^2 bytes a thread), the others in a hash table.
 constexpr std::size_t kPairingSlots = 1024;
 
 // What one brick contributes to the measures of the mesh.
@@ -95,44 +95,65 @@ void measure_faces(const std::array<std::uint32_t, 3>* tri, std::size_t faces,
 }
 
 // The pairing of a brick's half-edges when it has at most kPairingSlots local slots (corner:
-// each face corner's slot; slot(v): vertex v's). Counted in a matrix over the local slots (a
-// byte per ordered pair: the faces' half-edges in the low bits, 16 for a border half-edge),
-// whose touched entries are cleared after.
+// each face corner's slot; slot(v): vertex v's). Counted in a matrix over the local slots, one
+// entry per edge {a < b} with four counts of four bits: the faces' half-edges a -> b and b -> a,
+// and the border's listings a -> b and b -> a. Each entry is judged once, from the list of the
+// entries the brick touched, and cleared. False (with the matrix cleared and nothing counted)
+// when a count would pass 15: the brick is then paired in the hash table.
 template <class SlotOf>
-void pair_in_matrix(const std::uint32_t* corner, std::size_t faces, std::size_t slots,
+bool pair_in_matrix(const std::uint32_t* corner, std::size_t faces, std::size_t slots,
                     const std::vector<std::array<std::uint32_t, 2>>* border, const SlotOf& slot,
                     BrickMeasure& bm) {
-  thread_local std::vector<std::uint8_t> count(kPairingSlots * kPairingSlots, 0);
-  auto at = [&](std::uint32_t a, std::uint32_t b) -> std::uint8_t& {
-    return count[static_cast<std::size_t>(a) * slots + b];
-  };
-  thread_local std::vector<std::array<std::uint32_t, 2>> border_slots;
-  border_slots.clear();
-  for (int d = 0; d < 6; ++d)
-    for (const auto& e : border[d]) border_slots.push_back({slot(e[0]), slot(e[1])});
-  for (std::size_t h = 0; h < 3 * faces; ++h) {
-    std::uint8_t& c = at(corner[h], corner[h - h % 3 + (h + 1) % 3]);
-    if ((c & 15) != 15) ++c;
-  }
-  for (const auto& e : border_slots) {
-    std::uint8_t& c = at(e[0], e[1]);
-    c = static_cast<std::uint8_t>(c & 16 ? c | 32 : c | 16);  // 32: listed twice
-  }
-  for (std::size_t h = 0; h < 3 * faces; ++h) {
-    const std::uint32_t a = corner[h], b = corner[h - h % 3 + (h + 1) % 3];
-    const std::uint8_t x = at(a, b), y = at(b, a);
+  thread_local std::vector<std::uint16_t> count(kPairingSlots * kPairingSlots, 0);
+  thread_local std::vector<std::uint32_t> touched;
+  touched.clear();
+  bool saturated = false;
+  std::size_t loops = 0;  // half-edges from a vertex to itself
+  // Adds one to the count of a -> b (shift 0 for a face's half-edge, 8 for a border listing).
+  auto add = [&](std::uint32_t a, std::uint32_t b, int shift) {
     if (a == b) {
-      ++bm.problems;  // an edge from a vertex to itself
-    } else if (x == 1 && y == 1) {
-      bm.edges += a < b;                // an edge inside the brick, counted once
-    } else if (!(x == 17 && y == 0)) {  // else a border half-edge
-      ++bm.problems;
+      ++loops;
+      return;
     }
+    if (a > b) {
+      std::swap(a, b);
+      shift += 4;
+    }
+    const std::uint32_t at = a * static_cast<std::uint32_t>(slots) + b;
+    std::uint16_t& c = count[at];
+    if (c == 0) touched.push_back(at);
+    if (((c >> shift) & 15) == 15) saturated = true;
+    c = static_cast<std::uint16_t>(c + (1u << shift));
+  };
+  for (std::size_t f = 0; f < faces; ++f) {
+    const std::uint32_t* t = corner + 3 * f;
+    add(t[0], t[1], 0);
+    add(t[1], t[2], 0);
+    add(t[2], t[0], 0);
   }
-  for (const auto& e : border_slots)
-    if (at(e[0], e[1]) != 17) ++bm.problems;  // a border half-edge no face has
-  for (std::size_t h = 0; h < 3 * faces; ++h) at(corner[h], corner[h - h % 3 + (h + 1) % 3]) = 0;
-  for (const auto& e : border_slots) at(e[0], e[1]) = 0;
+  for (int d = 0; d < 6; ++d)
+    for (const auto& e : border[d]) add(slot(e[0]), slot(e[1]), 8);
+  std::size_t edges = 0, problems = loops;
+  for (const std::uint32_t at : touched) {
+    const unsigned c = count[at];
+    count[at] = 0;
+    const unsigned up = c & 15, down = (c >> 4) & 15, border_up = (c >> 8) & 15,
+                   border_down = c >> 12;
+    if (c == 0x11) {  // one half-edge each way, no border listing: an edge inside the brick
+      ++edges;
+      continue;
+    }
+    // Otherwise a face's half-edge is right only as the one half-edge of the edge, listed once
+    // on the border in its direction; a border listing only with the one face's half-edge.
+    if (!(up == 1 && border_up == 1 && down == 0 && border_down == 0)) problems += up;
+    if (!(down == 1 && border_down == 1 && up == 0 && border_up == 0)) problems += down;
+    if (!(up == 1 && border_up == 1)) problems += border_up;
+    if (!(down == 1 && border_down == 1)) problems += border_down;
+  }
+  if (saturated) return false;
+  bm.edges += edges;
+  bm.problems += problems;
+  return true;
 }
 
 // The pairing of a brick's half-edges when it has very many vertices: in a hash table by their
@@ -222,24 +243,40 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
     for (std::size_t h = (v * 0x9E3779B1u) & mask;; h = (h + 1) & mask)
       if (table[h][0] == v + 1 || table[h][0] == 0) return table[h];
   };
+  // Each corner's slot: an owned vertex's at once, a foreign one's table entry (marked by the
+  // top bit) until the foreign vertices are numbered in index order.
+  constexpr std::uint32_t kEntry = 0x80000000u;
   foreign.clear();
+  corner.resize(3 * r.faces);
+  std::size_t foreign_corners = 0;
   for (std::size_t f = 0; f < r.faces; ++f)
-    for (std::uint32_t v : tri[f])
-      if (!r.owns(v)) {
-        auto& e = find(v);
+    for (int k = 0; k < 3; ++k) {
+      const std::size_t v = tri[f][k];
+      std::uint32_t s;
+      if (v - r.edge < r.edges) {
+        s = static_cast<std::uint32_t>(v - r.edge);
+      } else if (v - r.centre < r.centres) {
+        s = static_cast<std::uint32_t>(r.edges + (v - r.centre));
+      } else {
+        auto& e = find(static_cast<std::uint32_t>(v));
+        const std::size_t h = static_cast<std::size_t>(&e - table.data());
         if (e[0] == 0) {
-          taken.push_back(static_cast<std::size_t>(&e - table.data()));
-          foreign.push_back(v);
-          e[0] = v + 1;
+          taken.push_back(h);
+          foreign.push_back(static_cast<std::uint32_t>(v));
+          e[0] = static_cast<std::uint32_t>(v + 1);
         }
+        s = kEntry | static_cast<std::uint32_t>(h);
+        ++foreign_corners;
       }
+      corner[3 * f + k] = s;
+    }
   std::sort(foreign.begin(), foreign.end());
   for (std::size_t k = 0; k < foreign.size(); ++k)
     find(foreign[k])[1] = static_cast<std::uint32_t>(owned + k);
+  if (foreign_corners > 0)
+    for (std::uint32_t& s : corner)
+      if (s & kEntry) s = table[s & ~kEntry][1];
   auto slot = [&](std::uint32_t v) -> std::uint32_t { return r.owns(v) ? r.local(v) : find(v)[1]; };
-  corner.resize(3 * r.faces);
-  for (std::size_t f = 0; f < r.faces; ++f)
-    for (int k = 0; k < 3; ++k) corner[3 * f + k] = slot(tri[f][k]);
   const std::size_t slots = owned + foreign.size();
   uf.reset(slots);
   for (std::size_t f = 0; f < r.faces; ++f) {
@@ -289,9 +326,7 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
   // The half-edges: each edge inside the brick has its two half-edges here, opposite; one
   // alone must be on a brick face (`border`, in the same direction), paired with the
   // neighbour's later.
-  if (slots <= kPairingSlots)
-    pair_in_matrix(corner.data(), r.faces, slots, border, slot, bm);
-  else
+  if (slots > kPairingSlots || !pair_in_matrix(corner.data(), r.faces, slots, border, slot, bm))
     pair_in_table(tri, r.faces, border, bm);
   return bm;
 }
