@@ -13,6 +13,7 @@
 #include "qjulia/field/classify.h"
 #include "qjulia/grid/sample.h"
 #include "qjulia/pipeline/pipeline.h"
+#include "surface/pairing.h"
 
 namespace qjulia {
 namespace {
@@ -591,6 +592,86 @@ TEST(Extract, SmallGridsAreSampledWhole) {
     expect_watertight(sparse.measure);
     EXPECT_EQ(sparse.measure.faces, dense.measure.faces);
     EXPECT_NEAR(sparse.measure.volume, dense.measure.volume, 1e-12);
+  }
+}
+
+// The pairing of a brick's half-edges (surface/pairing.h) on small hand-made bricks: faces as
+// slots, listings as (from, to). Each case runs in the matrix of counts and, with its slots
+// moved above the matrix's 1024, in the hash table; both must count alike.
+using SlotFaces = std::vector<std::array<std::uint32_t, 3>>;
+using Listings = std::vector<std::array<std::uint32_t, 2>>;
+
+void expect_pairing(const SlotFaces& faces, const Listings& listed, std::size_t edges,
+                    std::size_t problems) {
+  for (const std::uint32_t shift : {0u, 2000u}) {
+    SCOPED_TRACE(shift ? "hash table" : "matrix");
+    std::vector<std::uint32_t> corner;
+    std::uint32_t slots = 0;
+    for (const auto& t : faces)
+      for (const std::uint32_t v : t) {
+        corner.push_back(v + shift);
+        slots = std::max(slots, v + shift + 1);
+      }
+    Listings moved = listed;
+    for (auto& e : moved)
+      for (auto& v : e) {
+        v += shift;
+        slots = std::max(slots, v + 1);
+      }
+    const detail::HalfEdgePairing p =
+        detail::pair_half_edges(corner.data(), faces.size(), slots, moved.data(), moved.size());
+    EXPECT_EQ(p.edges, edges);
+    EXPECT_EQ(p.problems, problems);
+  }
+}
+
+TEST(Pairing, TellsEdgesInsideAndOnTheBorderFromEveryOtherHalfEdge) {
+  const SlotFaces tetrahedron = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 3, 2}};
+  {
+    SCOPED_TRACE("closed");
+    expect_pairing(tetrahedron, {}, 6, 0);
+  }
+  {
+    SCOPED_TRACE("one face turned: three edges with both half-edges one way");
+    expect_pairing({{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {0, 2, 3}}, {}, 3, 6);
+  }
+  {
+    SCOPED_TRACE("a fin on edge 0-1");
+    SlotFaces fin = tetrahedron;
+    fin.push_back({0, 1, 4});
+    expect_pairing(fin, {}, 5, 5);
+  }
+  {
+    SCOPED_TRACE("one face, its edges listed in their direction");
+    expect_pairing({{0, 1, 2}}, {{0, 1}, {1, 2}, {2, 0}}, 0, 0);
+  }
+  {
+    SCOPED_TRACE("listed against their direction: each half-edge and each listing");
+    expect_pairing({{0, 1, 2}}, {{1, 0}, {2, 1}, {0, 2}}, 0, 6);
+  }
+  {
+    SCOPED_TRACE("not listed");
+    expect_pairing({{0, 1, 2}}, {}, 0, 3);
+  }
+  {
+    SCOPED_TRACE("one edge listed twice: its half-edge and both listings");
+    expect_pairing({{0, 1, 2}}, {{0, 1}, {0, 1}, {1, 2}, {2, 0}}, 0, 3);
+  }
+  {
+    SCOPED_TRACE("a listing no face has");
+    expect_pairing(tetrahedron, {{0, 5}}, 6, 1);
+  }
+  {
+    SCOPED_TRACE("a repeated corner: the half-edge from a slot to itself");
+    expect_pairing({{0, 0, 1}}, {}, 1, 1);
+  }
+}
+
+TEST(Pairing, CountsBeyondTheMatrixsFourBitsAreCountedInTheTable) {
+  // 15 copies of one face fit the matrix's counts; 16 do not, and are counted exactly.
+  for (const std::size_t copies : {std::size_t{15}, std::size_t{16}}) {
+    SCOPED_TRACE(copies);
+    expect_pairing(SlotFaces(copies, {0, 1, 2}), {}, 0, 3 * copies);
   }
 }
 

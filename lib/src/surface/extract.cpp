@@ -22,14 +22,11 @@
 #include "qjulia/base/memory.h"
 #include "surface/brick_mesh.h"
 #include "surface/color.h"
+#include "surface/pairing.h"
 #include "surface/part.h"
 
 namespace qjulia {
 namespace {
-
-// Bricks with at most this many vertices (owned and foreign) pair their half-edges in a
-// matrix of counts (2 kPairingSlots^2 bytes a thread), the others in a hash table.
-constexpr std::size_t kPairingSlots = 1024;
 
 // What one brick contributes to the measures of the mesh.
 struct BrickMeasure {
@@ -91,123 +88,6 @@ void measure_faces(const std::array<std::uint32_t, 3>* tri, std::size_t faces,
     cm.volume += volume;
     for (int a = 0; a < 3; ++a) cm.normal_sum[a] += n[a];
     if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2] || area == 0) ++bm.degenerate;
-  }
-}
-
-// The pairing of a brick's half-edges when it has at most kPairingSlots local slots (corner:
-// each face corner's slot; slot(v): vertex v's). Counted in a matrix over the local slots, one
-// entry per edge {a < b} with four counts of four bits: the faces' half-edges a -> b and b -> a,
-// and the border's listings a -> b and b -> a. Each entry is judged once, from the list of the
-// entries the brick touched, and cleared. False (with the matrix cleared and nothing counted)
-// when a count would pass 15: the brick is then paired in the hash table.
-template <class SlotOf>
-bool pair_in_matrix(const std::uint32_t* corner, std::size_t faces, std::size_t slots,
-                    const std::vector<std::array<std::uint32_t, 2>>* border, const SlotOf& slot,
-                    BrickMeasure& bm) {
-  thread_local std::vector<std::uint16_t> count(kPairingSlots * kPairingSlots, 0);
-  thread_local std::vector<std::uint32_t> touched;
-  touched.clear();
-  bool saturated = false;
-  std::size_t loops = 0;  // half-edges from a vertex to itself
-  // Adds one to the count of a -> b (shift 0 for a face's half-edge, 8 for a border listing).
-  auto add = [&](std::uint32_t a, std::uint32_t b, int shift) {
-    if (a == b) {
-      ++loops;
-      return;
-    }
-    if (a > b) {
-      std::swap(a, b);
-      shift += 4;
-    }
-    const std::uint32_t at = a * static_cast<std::uint32_t>(slots) + b;
-    std::uint16_t& c = count[at];
-    if (c == 0) touched.push_back(at);
-    if (((c >> shift) & 15) == 15) saturated = true;
-    c = static_cast<std::uint16_t>(c + (1u << shift));
-  };
-  for (std::size_t f = 0; f < faces; ++f) {
-    const std::uint32_t* t = corner + 3 * f;
-    add(t[0], t[1], 0);
-    add(t[1], t[2], 0);
-    add(t[2], t[0], 0);
-  }
-  for (int d = 0; d < 6; ++d)
-    for (const auto& e : border[d]) add(slot(e[0]), slot(e[1]), 8);
-  std::size_t edges = 0, problems = loops;
-  for (const std::uint32_t at : touched) {
-    const unsigned c = count[at];
-    count[at] = 0;
-    const unsigned up = c & 15, down = (c >> 4) & 15, border_up = (c >> 8) & 15,
-                   border_down = c >> 12;
-    if (c == 0x11) {  // one half-edge each way, no border listing: an edge inside the brick
-      ++edges;
-      continue;
-    }
-    // Otherwise a face's half-edge is right only as the one half-edge of the edge, listed once
-    // on the border in its direction; a border listing only with the one face's half-edge.
-    if (!(up == 1 && border_up == 1 && down == 0 && border_down == 0)) problems += up;
-    if (!(down == 1 && border_down == 1 && up == 0 && border_up == 0)) problems += down;
-    if (!(up == 1 && border_up == 1)) problems += border_up;
-    if (!(down == 1 && border_down == 1)) problems += border_down;
-  }
-  if (saturated) return false;
-  bm.edges += edges;
-  bm.problems += problems;
-  return true;
-}
-
-// The pairing of a brick's half-edges when it has very many vertices: in a hash table by their
-// edge.
-void pair_in_table(const std::array<std::uint32_t, 3>* tri, std::size_t faces,
-                   const std::vector<std::array<std::uint32_t, 2>>* border, BrickMeasure& bm) {
-  struct Slot {
-    std::uint64_t key;                               // (smaller index << 32 | larger) + 1; 0: empty
-    std::uint16_t up, down, border_up, border_down;  // half-edges smaller -> larger and back
-  };
-  thread_local std::vector<Slot> table;
-  thread_local std::vector<std::uint32_t> used;
-  std::size_t n_border = 0;
-  for (int d = 0; d < 6; ++d) n_border += border[d].size();
-  std::size_t size = 64;
-  while (size < 2 * (3 * faces + n_border)) size *= 2;
-  if (table.size() < size) table.resize(size);
-  used.clear();
-  const std::size_t mask = size - 1;
-  auto slot_of = [&](std::uint32_t a, std::uint32_t b) -> Slot& {
-    const std::uint64_t key = ((std::uint64_t{std::min(a, b)} << 32) | std::max(a, b)) + 1;
-    std::size_t h = (key * 0x9E3779B97F4A7C15ull) >> 20;
-    for (;; ++h) {
-      Slot& s = table[h & mask];
-      if (s.key == key) return s;
-      if (s.key == 0) {
-        s = {key, 0, 0, 0, 0};
-        used.push_back(static_cast<std::uint32_t>(h & mask));
-        return s;
-      }
-    }
-  };
-  for (std::size_t f = 0; f < faces; ++f)
-    for (int k = 0; k < 3; ++k) {
-      const std::uint32_t a = tri[f][k], b = tri[f][(k + 1) % 3];
-      Slot& s = slot_of(a, b);
-      ++(a < b ? s.up : s.down);
-    }
-  for (int d = 0; d < 6; ++d)
-    for (const auto& e : border[d]) {
-      Slot& s = slot_of(e[0], e[1]);
-      ++(e[0] < e[1] ? s.border_up : s.border_down);
-    }
-  for (std::uint32_t u : used) {
-    Slot& s = table[u];
-    const int count = s.up + s.down;
-    if (count == 2 && s.up == 1 && s.border_up + s.border_down == 0) {
-      ++bm.edges;
-    } else if (count == 1 && s.border_up == s.up && s.border_down == s.down) {
-      // a border half-edge
-    } else {
-      bm.problems += static_cast<std::size_t>(count > 0 ? count : 1);
-    }
-    s.key = 0;  // the table is left empty for the next brick
   }
 }
 
@@ -326,8 +206,14 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
   // The half-edges: each edge inside the brick has its two half-edges here, opposite; one
   // alone must be on a brick face (`border`, in the same direction), paired with the
   // neighbour's later.
-  if (slots > kPairingSlots || !pair_in_matrix(corner.data(), r.faces, slots, border, slot, bm))
-    pair_in_table(tri, r.faces, border, bm);
+  thread_local std::vector<std::array<std::uint32_t, 2>> listed;
+  listed.clear();
+  for (int d = 0; d < 6; ++d)
+    for (const auto& e : border[d]) listed.push_back({slot(e[0]), slot(e[1])});
+  const detail::HalfEdgePairing pairing =
+      detail::pair_half_edges(corner.data(), r.faces, slots, listed.data(), listed.size());
+  bm.edges += pairing.edges;
+  bm.problems += pairing.problems;
   return bm;
 }
 
