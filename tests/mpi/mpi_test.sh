@@ -100,10 +100,11 @@ grep -q -- "--vdb is not available across ranks" "$work/err" || { cat "$work/err
 [ ! -e "$work/v.ply" ] && [ ! -e "$work/v.vdb" ] || fail "files written despite --vdb refusal"
 echo "ok: bad input and --vdb exit 2 with one message"
 # SIGINT or SIGTERM to mpirun during a long run: every rank stops, the job exits non-zero, no
-# file.
+# file. (At 512 two ranks can finish within the 2 s before the signal on a fast host; 1024 takes
+# four times as long.)
 for signal in INT TERM; do
   rm -rf "$work/sig" && mkdir "$work/sig"
-  "$mpiexec" -n 2 "$qjulia_mpi" mesh --resolution 512 --threads 1 --quiet -o "$work/sig/big.ply" \
+  "$mpiexec" -n 2 "$qjulia_mpi" mesh --resolution 1024 --threads 1 --quiet -o "$work/sig/big.ply" \
     --stats "$work/sig/big.json" >"$work/sig.out" 2>&1 &
   job=$!
   sleep 2
