@@ -246,9 +246,11 @@ void brick_vertices(const Brick* const* bricks, std::size_t n, const Solid& soli
     const Values values(br);
     Bits<kEdgeCodes> seen;
     std::vector<std::uint16_t>& edges = o.codes;
+    o.cells.reserve(br.surface.count());
     br.surface.for_each([&](int c) {
       float v[8];
       values.cell(c, v);
+      o.cells.push_back((static_cast<std::uint32_t>(c) << 16) | cell_case_index(v));
       int inside = 0;
       for (int d = 0; d < 8; ++d) inside |= (v[d] <= 0) << d;
       const int first = 3 * point_index(c / 64, (c / 8) % 8, c % 8);
@@ -288,11 +290,13 @@ void brick_vertices(const Brick* const* bricks, std::size_t n, const Solid& soli
   if (n > 0) out[0].evaluations = evaluations;
 }
 
-BrickPlan plan_brick(const Brick& br, const Solid& solid, const GridGeometry& geo,
-                     const BrickMeshOptions& opts, const BrickNeighbours& around) {
+BrickPlan plan_brick(const BrickCoord& at, std::vector<std::uint32_t> cells, const Solid& solid,
+                     const GridGeometry& geo, const BrickMeshOptions& opts,
+                     const BrickNeighbours& around) {
   const CubeTables& t = cube();
   BrickPlan out;
-  const int base[3] = {br.at.x * kBrick, br.at.y * kBrick, br.at.z * kBrick};
+  out.cells = std::move(cells);
+  const int base[3] = {at.x * kBrick, at.y * kBrick, at.z * kBrick};
   Lookup lookup(around);
   // The vertices' positions (the first pass's, out of cache by now) asked for at once.
   for (int dir = 0; dir < 8; ++dir)
@@ -311,19 +315,10 @@ BrickPlan plan_brick(const Brick& br, const Solid& solid, const GridGeometry& ge
   thread_local std::vector<Triangle> placed, fresh;
   thread_local std::vector<std::vector<std::uint8_t>> options;
   thread_local std::vector<std::pair<double, std::size_t>> by_area;
-  const Values values(br);
-  // The surface cells, read from their bit set.
-  int surface[kBrickCells], cells = 0;
-  br.surface.for_each([&](int c) { surface[cells++] = c; });
-  out.cells.reserve(cells);
-  for (int k = 0; k < cells; ++k) {
-    const int c = surface[k];
+  for (const std::uint32_t cell : out.cells) {
+    const int c = static_cast<int>(cell >> 16);
     const int ci[3] = {c / 64, (c / 8) % 8, c % 8};
-    float v[8];
-    values.cell(c, v);
-    const std::uint16_t number = cell_case_index(v);
-    out.cells.push_back((static_cast<std::uint32_t>(c) << 16) | number);
-    const CellCase& cc = cell_case_at(number);
+    const CellCase& cc = cell_case_at(static_cast<std::uint16_t>(cell & 0xffff));
     // The cell's corners as its vertices' coordinates hold them (a vertex keeps the coordinates
     // of its edge's corner exactly, rounded to float like them).
     auto cell_corner = [&](int up) {

@@ -39,13 +39,16 @@ struct BrickVertices {
   std::uint64_t key = 0;
   std::vector<std::array<float, 3>> positions;  ///< owned edge vertices, by ascending code
   std::vector<std::uint16_t> codes;             ///< their edge codes
-  std::uint64_t evaluations = 0;                ///< classifier calls
+  /// The surface cells in order, each as (local cell << 16) | its case number: all the plan
+  /// needs of the brick's values, so the brick can go after this pass.
+  std::vector<std::uint32_t> cells;
+  std::uint64_t evaluations = 0;  ///< classifier calls
 };
 
 /// The vertices on the crossing edges of the surface cells of each of the n bricks that it owns
-/// (every corner of a surface cell must be known), moved onto the boundary: out[b] for
-/// bricks[b]. The group's vertices are refined together, in shared batches of evaluations (all
-/// counted in out[0].evaluations).
+/// (every corner of a surface cell must be known), moved onto the boundary, and the cases of
+/// its surface cells: out[b] for bricks[b]. The group's vertices are refined together, in shared
+/// batches of evaluations (all counted in out[0].evaluations).
 void brick_vertices(const Brick* const* bricks, std::size_t n, const Solid& solid,
                     const GridGeometry& geo, const BrickMeshOptions& opts, BrickVertices* out);
 
@@ -61,8 +64,8 @@ struct BrickNeighbours {
 
 /// How the cells of a brick are triangulated: the table's way, except where listed.
 struct BrickPlan {
-  /// The surface cells in order, each as (local cell << 16) | its case number: all the second
-  /// pass needs of the brick's values, so the brick can go before it.
+  /// The surface cells in order, each as (local cell << 16) | its case number (the first
+  /// pass's, BrickVertices::cells).
   std::vector<std::uint32_t> cells;
   std::vector<std::array<float, 3>> centres;  ///< centre vertices, in the order of the cells
   std::vector<LoopChoice> choices;            ///< by cell, then loop
@@ -71,12 +74,14 @@ struct BrickPlan {
   std::uint64_t evaluations = 0;
 };
 
-/// The plan of each surface cell of `brick`: every loop is triangulated without a diagonal on a
-/// cube face (the neighbour cell could make the same edge), by the table's triangulation when
-/// the cell's triangles then do not cross, else by another (least area first) or around a
-/// centre vertex on the boundary inside the cell. Reads the edge vertices of `around`.
-BrickPlan plan_brick(const Brick& brick, const Solid& solid, const GridGeometry& geo,
-                     const BrickMeshOptions& opts, const BrickNeighbours& around);
+/// The plan of each surface cell (`cells`, as BrickVertices::cells) of the brick at `at`: every
+/// loop is triangulated without a diagonal on a cube face (the neighbour cell could make the
+/// same edge), by the table's triangulation when the cell's triangles then do not cross, else by
+/// another (least area first) or around a centre vertex on the boundary inside the cell. Reads
+/// the edge vertices of `around`; the plan keeps `cells`.
+BrickPlan plan_brick(const BrickCoord& at, std::vector<std::uint32_t> cells, const Solid& solid,
+                     const GridGeometry& geo, const BrickMeshOptions& opts,
+                     const BrickNeighbours& around);
 
 /// Where the second pass reads vertices and writes its results.
 struct MeshTarget {

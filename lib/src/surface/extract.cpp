@@ -329,8 +329,8 @@ void give_back_memory(const ExtractOptions& opts, std::size_t budget, std::size_
 // vertices) and pass three writes each brick's triangles in place (corners on a neighbour's
 // edges found through the neighbour's sorted edge codes) and measures them; the half-edges on
 // brick faces pair with the neighbour's across; components merge through the shared vertices.
-// With `release`, each brick's values go once it is planned, so the grid and the mesh are
-// never both whole in memory. With `part` (a distributed run), this rank meshes its own bricks
+// With `release`, each brick's values go once its edge vertices are made, so the grid and the mesh
+// are never both whole in memory. With `part` (a distributed run), this rank meshes its own bricks
 // and the up rank's first plane of bricks is known by its vertices only; the numbering, the
 // pairing across ranks, the components and the normals are agreed with the other ranks, so the
 // ranks' parts in rank order are the mesh of one process. run() takes the steps in order; what
@@ -452,6 +452,9 @@ struct BrickMesher {
             const detail::Brick* group[kGroup];
             for (std::size_t k = 0; k < n; ++k) group[k] = impl.bricks[i + k].get();
             detail::brick_vertices(group, n, *impl.solid, impl.geometry, bopts, &verts[i]);
+            // The vertices and the cells' cases hold what is left to do with the values.
+            if (release)
+              for (std::size_t k = 0; k < n; ++k) impl.bricks[i + k].reset();
           }
           const std::size_t k = done += r.size();
           if ((k / 64) != ((k - r.size()) / 64)) {
@@ -460,6 +463,10 @@ struct BrickMesher {
           }
         },
         tbb::simple_partitioner());
+    if (release) {
+      impl.bricks.clear();
+      impl.bricks.shrink_to_fit();
+    }
   }
 
   // What this rank's first plane of bricks sends the down rank: put(packer, brick) for each.
@@ -535,14 +542,9 @@ struct BrickMesher {
   void plan_cells() {
     plans.resize(nb);
     each_brick(0.35, 0.5, [&](std::size_t i) {
-      plans[i] =
-          detail::plan_brick(*impl.bricks[i], *impl.solid, impl.geometry, bopts, around(i, true));
-      if (release) impl.bricks[i].reset();  // the plan holds what is left to do with its values
+      plans[i] = detail::plan_brick(detail::brick_of_key(verts[i].key), std::move(verts[i].cells),
+                                    *impl.solid, impl.geometry, bopts, around(i, true));
     });
-    if (release) {
-      impl.bricks.clear();
-      impl.bricks.shrink_to_fit();
-    }
   }
 
   // The numbering: this rank's edge vertices after the lower ranks', its centre vertices after
