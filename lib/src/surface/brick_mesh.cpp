@@ -167,6 +167,14 @@ class Lookup {
       std::fill(std::begin(table_.stamps), std::end(table_.stamps), 0u);
       table_.stamp = 1;
     }
+    // The neighbours' codes (searched when asked for, on other bricks' cache lines) fetched
+    // meanwhile.
+    for (int dir = 1; dir < 8; ++dir)
+      if (const std::vector<std::uint16_t>* list = around.codes[dir]) {
+        const char* p = reinterpret_cast<const char*>(list->data());
+        for (std::size_t b = 0; b < list->size() * sizeof(std::uint16_t); b += 64)
+          __builtin_prefetch(p + b);
+      }
     // The brick's own vertices at once (most corners are), the neighbours' when asked.
     if (const std::vector<std::uint16_t>* own = around.codes[0])
       for (std::size_t i = 0; i < own->size(); ++i) {
