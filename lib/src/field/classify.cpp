@@ -303,10 +303,11 @@ std::uint64_t Solid::values(const double* x, const double* y, const double* z, s
     // constraint, and they are the refinement, which asks point by point near the walls.
     thread_local std::vector<double> c;
     c.resize(n);
-    bool all_in_box = true;
+    // (Without a branch or a short circuit: the loop runs in vectors.)
+    unsigned all_in_box = 1;
     for (std::size_t i = 0; i < n; ++i) {
       c[i] = box_constraint(min_, max_, x[i], y[i], z[i]);
-      all_in_box = all_in_box && c[i] <= 0;
+      all_in_box &= c[i] <= 0;
     }
     if (all_in_box) {
       const std::uint64_t steps =
