@@ -10,6 +10,7 @@
 
 #include "base/geometry.h"
 #include "base/mesh_check.h"
+#include "base/union_find.h"
 #include "qjulia/field/classify.h"
 #include "qjulia/grid/sample.h"
 #include "qjulia/pipeline/pipeline.h"
@@ -672,6 +673,32 @@ TEST(Pairing, CountsBeyondTheMatrixsFourBitsAreCountedInTheTable) {
   for (const std::size_t copies : {std::size_t{15}, std::size_t{16}}) {
     SCOPED_TRACE(copies);
     expect_pairing(SlotFaces(copies, {0, 1, 2}), {}, 0, 3 * copies);
+  }
+}
+
+// UnionFind::labels() numbers the sets in one pass, relying on no parent being larger than its
+// child: against the numbering by find() on random unions (runs of joined neighbours, as faces
+// make, and far pairs).
+TEST(UnionFind, LabelsNumberTheSetsInTheOrderOfTheirSmallestElements) {
+  std::mt19937 rng(7);
+  for (const std::uint32_t n : {1u, 2u, 17u, 500u, 5000u}) {
+    SCOPED_TRACE(n);
+    detail::UnionFind uf(n);
+    std::uniform_int_distribution<std::uint32_t> any(0, n - 1);
+    for (std::uint32_t k = 0; k < n / 2; ++k) {
+      const std::uint32_t a = any(rng);
+      uf.unite(a, k % 3 ? std::min(n - 1, a + 1 + k % 5) : any(rng));
+    }
+    std::vector<std::uint32_t> label;
+    const std::uint32_t sets = uf.labels(label);
+    EXPECT_EQ(sets, uf.sets());
+    std::vector<std::uint32_t> by_root(n, UINT32_MAX);
+    std::uint32_t next = 0;
+    for (std::uint32_t x = 0; x < n; ++x) {
+      const std::uint32_t r = uf.find(x);
+      if (by_root[r] == UINT32_MAX) by_root[r] = next++;
+      ASSERT_EQ(label[x], by_root[r]) << "element " << x;
+    }
   }
 }
 

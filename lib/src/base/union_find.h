@@ -43,6 +43,18 @@ class UnionFind {
   /// The number of sets.
   std::size_t sets() const { return sets_; }
 
+  /// Each element's set numbered 0, 1, ... in the order of the sets' smallest elements, into
+  /// `label` (n entries); returns the number of sets. One pass without a search: an element's
+  /// parent is never larger than it (a root is its set's smallest element, and halving a path
+  /// only moves an element to an ancestor), so its label is known when the element is reached.
+  std::uint32_t labels(std::vector<uint32_t>& label) const {
+    label.resize(parent_.size());
+    std::uint32_t next = 0;
+    for (std::size_t x = 0; x < parent_.size(); ++x)
+      label[x] = parent_[x] == x ? next++ : label[parent_[x]];
+    return next;
+  }
+
  private:
   std::vector<uint32_t> parent_;
   std::size_t sets_ = 0;

@@ -163,15 +163,7 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
     uf.unite(corner[3 * f], corner[3 * f + 1]);
     uf.unite(corner[3 * f + 1], corner[3 * f + 2]);
   }
-  comp_of.assign(slots, UINT32_MAX);
-  for (std::size_t s = 0; s < comp_of.size(); ++s) {
-    const std::uint32_t root = uf.find(static_cast<std::uint32_t>(s));
-    if (comp_of[root] == UINT32_MAX) {
-      comp_of[root] = static_cast<std::uint32_t>(bm.comps.size());
-      bm.comps.emplace_back();
-    }
-    comp_of[s] = comp_of[root];
-  }
+  bm.comps.resize(uf.labels(comp_of));
   bm.owned_comp.assign(comp_of.begin(), comp_of.begin() + r.edges);
   // Each slot's position relative to the base point (the first face's first corner), converted
   // once (a vertex is a corner of about six faces).
