@@ -38,6 +38,11 @@ class Values {
   float* v_;
 };
 
+// Asks for the cache lines of `bytes` bytes at `p`, to be read soon.
+void prefetch_bytes(const void* p, std::size_t bytes) {
+  for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(static_cast<const char*>(p) + b);
+}
+
 // The edge code of cube edge e of local cell (ci).
 int code_of(const CubeTables& t, const int ci[3], int e) {
   const int d0 = t.edge_corner[e];
@@ -170,11 +175,8 @@ class Lookup {
     // The neighbours' codes (searched when asked for, on other bricks' cache lines) fetched
     // meanwhile.
     for (int dir = 1; dir < 8; ++dir)
-      if (const std::vector<std::uint16_t>* list = around.codes[dir]) {
-        const char* p = reinterpret_cast<const char*>(list->data());
-        for (std::size_t b = 0; b < list->size() * sizeof(std::uint16_t); b += 64)
-          __builtin_prefetch(p + b);
-      }
+      if (const std::vector<std::uint16_t>* list = around.codes[dir])
+        prefetch_bytes(list->data(), list->size() * sizeof(std::uint16_t));
     // The brick's own vertices at once (most corners are), the neighbours' when asked.
     if (const std::vector<std::uint16_t>* own = around.codes[0])
       for (std::size_t i = 0; i < own->size(); ++i) {
@@ -308,11 +310,9 @@ BrickPlan plan_brick(const BrickCoord& at, std::vector<std::uint32_t> cells, con
   Lookup lookup(around);
   // The vertices' positions (the first pass's, out of cache by now) asked for at once.
   for (int dir = 0; dir < 8; ++dir)
-    if (around.codes[dir] && around.positions[dir]) {
-      const char* p = reinterpret_cast<const char*>(around.positions[dir]);
-      const std::size_t bytes = around.codes[dir]->size() * sizeof(std::array<float, 3>);
-      for (std::size_t b = 0; b < bytes; b += 64) __builtin_prefetch(p + b);
-    }
+    if (around.codes[dir] && around.positions[dir])
+      prefetch_bytes(around.positions[dir],
+                     around.codes[dir]->size() * sizeof(std::array<float, 3>));
   auto point_of = [&](int code) {
     const auto [dir, index] = lookup(code);
     const std::array<float, 3>& p = around.positions[dir][index];

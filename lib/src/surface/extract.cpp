@@ -131,19 +131,17 @@ BrickMeasure measure_brick(const TriMesh& mesh, const PositionOf& position_of, c
   std::size_t foreign_corners = 0;
   for (std::size_t f = 0; f < r.faces; ++f)
     for (int k = 0; k < 3; ++k) {
-      const std::size_t v = tri[f][k];
+      const std::uint32_t v = tri[f][k];
       std::uint32_t s;
-      if (v - r.edge < r.edges) {
-        s = static_cast<std::uint32_t>(v - r.edge);
-      } else if (v - r.centre < r.centres) {
-        s = static_cast<std::uint32_t>(r.edges + (v - r.centre));
+      if (r.owns(v)) {
+        s = r.local(v);
       } else {
-        auto& e = find(static_cast<std::uint32_t>(v));
+        auto& e = find(v);
         const std::size_t h = static_cast<std::size_t>(&e - table.data());
         if (e[0] == 0) {
           taken.push_back(h);
-          foreign.push_back(static_cast<std::uint32_t>(v));
-          e[0] = static_cast<std::uint32_t>(v + 1);
+          foreign.push_back(v);
+          e[0] = v + 1;
         }
         s = kEntry | static_cast<std::uint32_t>(h);
         ++foreign_corners;
@@ -227,18 +225,11 @@ Components resolve_components(const std::vector<BrickMeasure::Comp>& comps, deta
     std::size_t vertices = 0;
     std::array<double, 3> lo{HUGE_VAL, HUGE_VAL, HUGE_VAL}, hi{-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
   };
-  std::vector<Total> totals;
-  std::vector<std::uint32_t> root_index(comps.size(), UINT32_MAX);
   Components out;
-  out.final_index.resize(comps.size());
+  // Each local component's joined one, in the order of their first local components.
+  std::vector<Total> totals(uf.labels(out.final_index));
   for (std::size_t i = 0; i < comps.size(); ++i) {
-    const std::uint32_t r = uf.find(static_cast<std::uint32_t>(i));
-    if (root_index[r] == UINT32_MAX) {
-      root_index[r] = static_cast<std::uint32_t>(totals.size());
-      totals.emplace_back();
-    }
-    out.final_index[i] = root_index[r];
-    Total& t = totals[root_index[r]];
+    Total& t = totals[out.final_index[i]];
     const auto& lc = comps[i];
     t.c.faces += lc.faces;
     t.c.area += lc.area;
