@@ -192,7 +192,6 @@ TEST(Decimate, ATorusDecimatedHardKeepsItsHole) {
   }
 }
 
-// The simplifier of the fast method alone: collapses down to what the topology allows.
 /// The tetrahedron with corners at `at` and `size` along each axis from it, faces outward.
 TriMesh tetrahedron(std::array<float, 3> at, float size) {
   TriMesh t;
@@ -201,6 +200,8 @@ TriMesh tetrahedron(std::array<float, 3> at, float size) {
   t.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
   return t;
 }
+
+// The simplifier of the fast method alone: collapses down to what the topology allows.
 
 TEST(CollapseEdges, ATetrahedronStaysATetrahedron) {
   const TriMesh tetra = tetrahedron({0, 0, 0}, 1);
