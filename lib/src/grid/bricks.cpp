@@ -964,7 +964,8 @@ struct BrickSampler::Sampling {
   const int lowest_plane = -1, highest_plane;
   std::vector<std::array<int, 3>>& interior;  // the sampler's interior blocks
   BrickMap bricks;
-  std::mutex report_mutex;
+  std::mutex report_mutex;  // held by the reports of parallel work
+  double reported = 0;      // the last progress reported
   // The coarse lattice (the sparse path): its points and the centres of its cells, by
   // lattice_index(); points -1 .. hi + 1 per axis, centres -1 .. hi.
   int hi[3] = {0, 0, 0};
@@ -997,10 +998,15 @@ struct BrickSampler::Sampling {
     return opts.dense || std::max({P[0], P[1], P[2]}) <= 2 * kCoarse;
   }
 
-  // Throws Cancelled when asked to stop; reports progress f.
-  void report(double f) const {
+  // Throws Cancelled when asked to stop; reports progress f, unless it is below the last report:
+  // in parallel work a thread that counted its bricks earlier may reach the lock later. (Called
+  // by one thread at a time: from the steps of run(), or under report_mutex.)
+  void report(double f) {
     im.check_cancel();
-    if (opts.progress && !opts.progress(std::min(1.0, f))) throw Cancelled();
+    f = std::min(1.0, f);
+    if (f < reported) return;
+    reported = f;
+    if (opts.progress && !opts.progress(f)) throw Cancelled();
   }
 
   // A brick by key, created when new and linked with its neighbours both ways.

@@ -328,7 +328,8 @@ struct BrickMesher {
   std::size_t nb = 0;  // own bricks
   std::size_t nv = 0;  // own bricks, then the up rank's first plane
   detail::BrickMeshOptions bopts;
-  std::mutex report_mutex;
+  std::mutex report_mutex;  // held by a parallel pass's reports
+  double reported = 0;      // the last progress reported
   // Per brick: its edge vertices (pass one), its plan (pass two), its vertices and faces in the
   // mesh (the numbering), its border half-edges (pass three) and its measures.
   std::vector<detail::BrickVertices> verts;
@@ -386,9 +387,13 @@ struct BrickMesher {
   // before the budget is known).
   void give_back(std::size_t coming) const { give_back_memory(opts, budget, coming); }
 
-  // Throws Cancelled when asked to stop; reports progress f.
-  void report(double f) const {
+  // Throws Cancelled when asked to stop; reports progress f, unless it is below the last report:
+  // in a parallel pass a thread that counted its bricks earlier may reach the lock later. (Called
+  // by one thread at a time: from run(), or under report_mutex.)
+  void report(double f) {
     if (opts.cancel && opts.cancel->requested()) throw Cancelled();
+    if (f < reported) return;
+    reported = f;
     if (opts.progress && !opts.progress(f)) throw Cancelled();
   }
 
