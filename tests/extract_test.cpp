@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <random>
@@ -529,27 +530,36 @@ TEST(Extract, RandomSetsGiveClosedEmbeddedSurfacesThatTheirBricksMeasure) {
 }
 
 TEST(Extract, NormalsAreEachVertexsFaceOrderSumOnAnyThreadCount) {
-  // newton-cubic at 128: about 410,000 faces on some 200,000 vertices, so every lane of the
-  // parallel sum has runs of vertices (4096 each), and many faces have corners in two lanes.
+  // newton-cubic at 128: about 410,000 faces on some 200,000 vertices, so each thread's range of
+  // vertices has many faces, and some faces have corners in two ranges. Then the same faces in a
+  // random order: every block of faces has corners in every range.
   Params p = preset("newton-cubic");
   p.resolution = 128;
   TriMesh mesh = extract(sample(p), {});
   ASSERT_GT(mesh.triangles.size(), std::size_t{1} << 18);
-  std::vector<std::array<float, 3>> serial(mesh.positions.size(), {0, 0, 0});
-  detail::add_area_normals(
-      mesh.triangles, [&](std::uint32_t v) -> const auto& { return mesh.positions[v]; },
-      [&](std::uint32_t v) { return &serial[v]; });
-  for (auto& n : serial) detail::normalize_sum(n);
-  ASSERT_EQ(mesh.normals, serial);  // extract's own normals
-  for (int threads : {1, 2, 3, 7}) {
-    SCOPED_TRACE(threads);
-    tbb::task_arena arena(threads);
-    std::vector<std::array<float, 3>> parallel;
-    arena.execute([&] { parallel = area_weighted_normals(mesh); });
-    ASSERT_EQ(parallel.size(), serial.size());
-    std::size_t differ = 0;
-    for (std::size_t v = 0; v < serial.size(); ++v) differ += parallel[v] != serial[v];
-    EXPECT_EQ(differ, 0u);
+  auto face_order_sums = [](const TriMesh& m) {
+    std::vector<std::array<float, 3>> sums(m.positions.size(), {0, 0, 0});
+    detail::add_area_normals(
+        m.triangles, [&](std::uint32_t v) -> const auto& { return m.positions[v]; },
+        [&](std::uint32_t v) { return &sums[v]; });
+    for (auto& n : sums) detail::normalize_sum(n);
+    return sums;
+  };
+  ASSERT_EQ(mesh.normals, face_order_sums(mesh));  // extract's own normals
+  TriMesh shuffled = mesh;
+  std::shuffle(shuffled.triangles.begin(), shuffled.triangles.end(), std::mt19937(7));
+  for (const TriMesh* m : {&mesh, &shuffled}) {
+    const std::vector<std::array<float, 3>> serial = face_order_sums(*m);
+    for (int threads : {1, 2, 3, 7}) {
+      SCOPED_TRACE(threads);
+      tbb::task_arena arena(threads);
+      std::vector<std::array<float, 3>> parallel;
+      arena.execute([&] { parallel = area_weighted_normals(*m); });
+      ASSERT_EQ(parallel.size(), serial.size());
+      std::size_t differ = 0;
+      for (std::size_t v = 0; v < serial.size(); ++v) differ += parallel[v] != serial[v];
+      EXPECT_EQ(differ, 0u);
+    }
   }
 }
 

@@ -182,47 +182,53 @@ std::vector<std::array<float, 3>> area_weighted_normals(const TriMesh& mesh) {
   validate_mesh(mesh, "normals");
   // Summed in the output itself (float: a vertex has a few faces, and a unit normal needs no
   // more), each vertex's faces in face order, so the result does not depend on threads: each
-  // thread scans the faces in order and adds their normals to its own vertices (runs of 4096
-  // consecutive ones in every `lanes`). A face whose corners are all in one lane is marked with
-  // it beforehand, so the other lanes skip it without reading it; a face with corners in several
-  // lanes has its normal made by each of them.
+  // thread owns a contiguous range of vertices, scans the faces in order and adds their normals
+  // to its own vertices. The faces are scanned in blocks whose smallest and largest corner are
+  // found first: a thread skips the blocks with no corner in its range. An extracted mesh's faces
+  // follow its vertices (brick by brick), so each thread reads about its share of the faces; a
+  // face with corners in two ranges has its normal made by each of their threads.
   std::vector<std::array<float, 3>> normals;
   detail::resize_first_touched(normals, mesh.positions.size());
-  const std::size_t nf = mesh.triangles.size();
+  const std::size_t nv = mesh.positions.size(), nf = mesh.triangles.size();
   auto position = [&](std::uint32_t v) -> const auto& { return mesh.positions[v]; };
-  constexpr int kRunShift = 12;          // a lane's runs: 4096 vertices, a brick's vertices or more
-  constexpr std::uint8_t kMixed = 0xff;  // a face with corners in more than one lane
-  // One lane per thread that may run; a power of two, so a vertex's lane is a mask, and below
-  // kMixed.
-  const std::size_t threads = detail::threads_that_may_run();
-  std::size_t lanes = 1;
-  while (lanes * 2 <= std::min<std::size_t>(threads, 128)) lanes *= 2;
-  const std::uint32_t lane_mask = static_cast<std::uint32_t>(lanes - 1);
-  auto lane_of = [&](std::uint32_t v) { return (v >> kRunShift) & lane_mask; };
-  std::vector<std::uint8_t> face_lane;
-  if (lanes > 1) {
-    detail::resize_first_touched(face_lane, nf);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nf, 1 << 14),
-                      [&](const tbb::blocked_range<std::size_t>& r) {
-                        for (std::size_t f = r.begin(); f != r.end(); ++f) {
-                          const auto& t = mesh.triangles[f];
-                          const std::uint32_t l = lane_of(t[0]);
-                          face_lane[f] = l == lane_of(t[1]) && l == lane_of(t[2])
-                                             ? static_cast<std::uint8_t>(l)
-                                             : kMixed;
-                        }
-                      });
-  }
-  tbb::parallel_for(std::size_t{0}, lanes, [&](std::size_t lane) {
-    for (std::size_t f = 0; f < nf; ++f) {
-      if (lanes > 1 && face_lane[f] != lane && face_lane[f] != kMixed) continue;
+  constexpr std::size_t kLeast = std::size_t{1} << 14;  // vertices a thread's range has at least
+  const std::size_t lanes =
+      std::max<std::size_t>(1, std::min(detail::threads_that_may_run(), nv / kLeast));
+  // Adds the normals of faces [first, last) to the vertices in [lo, hi).
+  auto add = [&](std::size_t first, std::size_t last, std::uint32_t lo, std::uint32_t hi) {
+    for (std::size_t f = first; f < last; ++f) {
       const auto& t = mesh.triangles[f];
+      const bool in[3] = {t[0] - lo < hi - lo, t[1] - lo < hi - lo, t[2] - lo < hi - lo};
+      if (!(in[0] || in[1] || in[2])) continue;
       const std::array<float, 3> n = detail::area_normal(t, position);
-      for (std::uint32_t v : t)
-        if (lane_of(v) == lane)
-          for (int k = 0; k < 3; ++k) normals[v][k] += n[k];
+      for (int c = 0; c < 3; ++c)
+        if (in[c])
+          for (int k = 0; k < 3; ++k) normals[t[c]][k] += n[k];
     }
-  });
+  };
+  if (lanes == 1) {
+    add(0, nf, 0, static_cast<std::uint32_t>(nv));
+  } else {
+    constexpr std::size_t kFaces = 4096;  // faces per block
+    const std::size_t blocks = (nf + kFaces - 1) / kFaces;
+    std::vector<std::array<std::uint32_t, 2>> span(blocks);  // each block's corners' range
+    tbb::parallel_for(std::size_t{0}, blocks, [&](std::size_t b) {
+      std::uint32_t lo = UINT32_MAX, hi = 0;
+      for (std::size_t f = b * kFaces; f < std::min(nf, (b + 1) * kFaces); ++f)
+        for (std::uint32_t v : mesh.triangles[f]) {
+          lo = std::min(lo, v);
+          hi = std::max(hi, v);
+        }
+      span[b] = {lo, hi};
+    });
+    tbb::parallel_for(std::size_t{0}, lanes, [&](std::size_t lane) {
+      const auto lo = static_cast<std::uint32_t>(nv * lane / lanes);
+      const auto hi = static_cast<std::uint32_t>(nv * (lane + 1) / lanes);
+      for (std::size_t b = 0; b < blocks; ++b)
+        if (span[b][1] >= lo && span[b][0] < hi)
+          add(b * kFaces, std::min(nf, (b + 1) * kFaces), lo, hi);
+    });
+  }
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, normals.size(), 1 << 14),
                     [&](const tbb::blocked_range<std::size_t>& r) {
                       for (std::size_t v = r.begin(); v != r.end(); ++v)
