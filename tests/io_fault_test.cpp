@@ -7,6 +7,7 @@
 #include <sys/resource.h>
 #include <sys/stat.h>
 
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -205,6 +206,106 @@ TEST(AtomicFile, AFileGivenUpWithABlockInFlightLeavesNothingAndTheOldFile) {
     EXPECT_EQ(read_bytes(path), "old") << "round " << round;
     EXPECT_EQ(dir.names().size(), 1u) << "round " << round << ": " << dir.names().back();
   }
+}
+
+// A region of the file written by threads of its own at its offset, while the owner appends the
+// bytes before it: below one block, whole blocks, and blocks with a partial one, after prefixes
+// of one and of several stages; the file holds exactly the bytes of both.
+TEST(AtomicFile, ARegionWrittenByThreadsOfItsOwnLandsAtItsOffsetOnDiskATmpfsAndARamfs) {
+  TempDir dir;
+  Tmpfs disk("80m");
+  ASSERT_TRUE(disk.mounted());
+  Tmpfs ram("80m", "ramfs");  // refuses O_DIRECT: every byte through the page cache
+  ASSERT_TRUE(ram.mounted());
+  constexpr std::size_t kStage = qjulia::AtomicFile::kStageBytes;
+  constexpr std::size_t kAlign = qjulia::RegionWriter::kAlignment;
+  const std::pair<std::size_t, std::size_t> cases[] = {
+      {kAlign, 100000}, {3 * kStage, 3 * kStage}, {5 * kAlign, 7 * kStage + 12345}};
+  for (const auto& [before, size] : cases) {
+    const std::string bytes = big_bytes(before + size);
+    for (const std::string& path :
+         {dir.file("big.bin"), disk.file("big.bin"), ram.file("big.bin")}) {
+      qjulia::AtomicFile f(path);
+      std::atomic<std::size_t> filled{0};
+      qjulia::RegionWriter region(f, before, size,
+                                  [&](char* out, std::uint64_t first, std::size_t n) {
+                                    std::memcpy(out, bytes.data() + before + first, n);
+                                    filled += n;
+                                  });
+      write_in_pieces(f, bytes.substr(0, before));
+      region.finish();
+      f.commit();
+      EXPECT_EQ(filled, size);
+      EXPECT_TRUE(read_bytes(path) == bytes) << path << ", " << size << " bytes at " << before;
+      fs::remove(path);
+    }
+  }
+  TempDir other;
+  qjulia::AtomicFile f(other.file("x.bin"));
+  EXPECT_THROW(qjulia::RegionWriter(f, kAlign + 1, 10, [](char*, std::uint64_t, std::size_t) {}),
+               std::logic_error);
+}
+
+// A region given up (its writer destroyed before finish(), as when the owner throws), cancelled,
+// or whose bytes cannot be made, leaves nothing behind and the old file as it was.
+TEST(AtomicFile, ARegionGivenUpCancelledOrFailingLeavesNothingAndTheOldFile) {
+  TempDir dir;
+  const std::string path = dir.file("kept.bin");
+  write_bytes(path, "old");
+  constexpr std::size_t kStage = qjulia::AtomicFile::kStageBytes;
+  const std::string bytes = big_bytes(9 * kStage);
+  auto copy = [&](char* out, std::uint64_t first, std::size_t n) {
+    std::memcpy(out, bytes.data() + first, n);
+  };
+  for (int round = 0; round < 9; ++round) {
+    qjulia::CancelToken cancel;
+    try {
+      qjulia::AtomicFile f(path, &cancel);
+      if (round % 3 == 0) {  // given up
+        qjulia::RegionWriter region(f, kStage, bytes.size(), copy);
+        write_in_pieces(f, bytes.substr(0, kStage));
+      } else if (round % 3 == 1) {  // cancelled while the region goes out
+        qjulia::RegionWriter region(f, kStage, bytes.size(), copy);
+        cancel.request();
+        EXPECT_THROW(region.finish(), qjulia::Cancelled);
+      } else {  // the bytes of its fourth block cannot be made
+        qjulia::RegionWriter region(f, 0, bytes.size(),
+                                    [&](char* out, std::uint64_t first, std::size_t n) {
+                                      if (first >= 3 * kStage)
+                                        throw std::runtime_error("no bytes there");
+                                      copy(out, first, n);
+                                    });
+        EXPECT_THROW(region.finish(), std::runtime_error);
+      }
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << "round " << round << ": " << e.what();
+    }
+    EXPECT_EQ(read_bytes(path), "old") << "round " << round;
+    EXPECT_EQ(dir.names().size(), 1u) << "round " << round << ": " << dir.names().back();
+  }
+}
+
+TEST(AtomicFile, ARegionOnADiskThatFillsIsARuntimeErrorAndLeavesNoFile) {
+  Tmpfs disk("40m");
+  ASSERT_TRUE(disk.mounted());
+  const std::string path = disk.file("big.bin");
+  const std::string bytes = big_bytes(std::size_t(60) << 20);
+  try {
+    qjulia::AtomicFile f(path);
+    // The whole file is the region: only the region's writers meet the full disk.
+    qjulia::RegionWriter region(f, 0, bytes.size(),
+                                [&](char* out, std::uint64_t first, std::size_t n) {
+                                  std::memcpy(out, bytes.data() + first, n);
+                                });
+    region.finish();
+    f.commit();
+    ADD_FAILURE() << "written: " << path;
+  } catch (const InvalidInput& e) {
+    ADD_FAILURE() << "a full disk is not bad input: " << e.what();
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()), path + ": write failed (No space left on device)");
+  }
+  EXPECT_TRUE(disk.dir().names().empty()) << disk.dir().names().front();
 }
 
 TEST(AtomicFile, ADiskThatFillsAfterTheFirstBlocksIsARuntimeErrorAndLeavesNoFile) {

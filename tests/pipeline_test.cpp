@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <optional>
 #include <set>
 
 #include "qjulia/base/mesh.h"
@@ -146,6 +147,29 @@ bool is_subsequence(const std::vector<T>& part, const std::vector<T>& whole) {
   for (const T& x : whole)
     if (i < part.size() && part[i] == x) ++i;
   return i == part.size();
+}
+
+// PipelineOptions::normals false (as `qjulia mesh -o x.ply` runs): the same mesh and measures,
+// without normals, which area_weighted_normals() then makes as the pipeline would have; after the
+// dust removal and after a decimation.
+TEST(Pipeline, WithoutNormalsTheMeshIsTheSameAndTheWritersNormalsAreThePipelines) {
+  Params p = preset("newton-cubic");
+  p.resolution = 96;
+  for (const std::optional<std::size_t> faces : {std::optional<std::size_t>(), {60000}}) {
+    SCOPED_TRACE(faces ? "decimated" : "not decimated");
+    p.mesh.faces = faces;
+    const PipelineResult with = run_pipeline(p);
+    PipelineOptions opts;
+    opts.normals = false;
+    const PipelineResult without = run_pipeline(p, opts);
+    ASSERT_EQ(with.mesh.normals.size(), with.mesh.positions.size());
+    EXPECT_TRUE(without.mesh.normals.empty());
+    EXPECT_EQ(without.mesh.positions, with.mesh.positions);
+    EXPECT_EQ(without.mesh.triangles, with.mesh.triangles);
+    EXPECT_EQ(without.stats.measure.volume, with.stats.measure.volume);
+    EXPECT_EQ(without.stats.measure.euler, with.stats.measure.euler);
+    EXPECT_TRUE(area_weighted_normals(without.mesh) == with.mesh.normals);
+  }
 }
 
 TEST(Pipeline, DustRemovalKeepsTheOrderAndLeavesTheFacesTheGeneralCleanLeaves) {

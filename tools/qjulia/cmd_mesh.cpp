@@ -14,6 +14,8 @@ int cmd_mesh(const Tokens& tokens, const CancelToken& cancel) {
   ProgressBar bar(cmd->args.has("quiet"));
   PipelineOptions popts = cmd->pipeline;
   popts.progress = bar.callback();
+  // A PLY writer makes the normals while its faces go to the disk; a preview needs them first.
+  popts.normals = format_from_path(cmd->out) != MeshFormat::kPly || cmd->preview.has_value();
   PipelineResult result = run_pipeline(cmd->params, popts);
 
   if (result.mesh.triangles.empty()) throw InvalidInput(nothing_written(cmd->params, result.stats));

@@ -10,8 +10,11 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
 #include <stdexcept>
+#include <thread>
 #include <tuple>
+#include <utility>
 
 #include "base/threads.h"
 #include "qjulia/base/error.h"
@@ -21,6 +24,7 @@ namespace {
 
 constexpr std::size_t kBlock = AtomicFile::kStageBytes;  // bytes per write() between checks
 constexpr std::size_t kAlign = 4096;  // what O_DIRECT needs of buffers, sizes and offsets
+static_assert(kAlign == RegionWriter::kAlignment);
 
 std::string errno_text(int err) { return std::strerror(err); }
 
@@ -314,6 +318,109 @@ void BufferedWriter::flush() {
   }
   if (n > 0) file_.staged(n);
   begin_ = cur_ = end_ = nullptr;
+}
+
+// ---------------------------------------------------------------------------- RegionWriter
+
+// Two workers take the blocks in turn (block k by worker k % 2), each formatting its block while
+// the other's is being written.
+struct RegionWriter::State {
+  static constexpr int kWorkers = 2;
+  std::string temp_path, final_path;
+  const CancelToken* cancel = nullptr;
+  std::uint64_t offset = 0, size = 0;
+  Fill fill;
+  std::atomic<bool> stop{false};
+  std::exception_ptr errors[kWorkers];  // set by the workers, read after they are joined
+  std::thread workers[kWorkers];
+
+  void join() {
+    for (std::thread& t : workers)
+      if (t.joinable()) t.join();
+  }
+
+  void run(int worker) noexcept {
+    int fd = -1;
+    char* buffer = nullptr;
+    try {
+      fd = ::open(temp_path.c_str(), O_WRONLY | O_CLOEXEC | O_DIRECT);
+      bool direct = fd >= 0;
+      if (fd < 0) fd = ::open(temp_path.c_str(), O_WRONLY | O_CLOEXEC);  // no O_DIRECT there
+      if (fd < 0) fail(errno);
+      buffer = static_cast<char*>(std::aligned_alloc(kAlign, kBlock));
+      if (!buffer) throw std::bad_alloc();
+      auto buffered = [&] {
+        const int flags = ::fcntl(fd, F_GETFL);
+        if (flags < 0 || ::fcntl(fd, F_SETFL, flags & ~O_DIRECT) != 0) fail(errno);
+        direct = false;
+      };
+      for (std::uint64_t done = std::uint64_t{kBlock} * worker; done < size;
+           done += std::uint64_t{kBlock} * kWorkers) {
+        if (stop.load(std::memory_order_relaxed)) break;
+        throw_if_cancelled(cancel);
+        const std::size_t n =
+            static_cast<std::size_t>(std::min<std::uint64_t>(kBlock, size - done));
+        fill(buffer, done, n);
+        if (direct && n % kAlign != 0) buffered();  // the region's last, partial block
+        for (std::size_t put = 0; put < n;) {
+          const ssize_t w =
+              ::pwrite(fd, buffer + put, n - put, static_cast<off_t>(offset + done + put));
+          if (w < 0) {
+            if (errno == EINTR) continue;
+            if (errno == EINVAL && direct) {  // the file system refuses direct writes after all
+              buffered();
+              continue;
+            }
+            fail(errno);
+          }
+          put += static_cast<std::size_t>(w);
+          if (direct && put < n && w % static_cast<ssize_t>(kAlign) != 0) buffered();  // short
+        }
+      }
+      const int closing = fd;
+      fd = -1;
+      if (::close(closing) != 0) fail(errno);
+    } catch (...) {
+      errors[worker] = std::current_exception();
+      stop = true;  // the other worker stops too
+    }
+    if (fd >= 0) ::close(fd);
+    std::free(buffer);
+  }
+  [[noreturn]] void fail(int err) const {
+    throw std::runtime_error(final_path + ": write failed (" + errno_text(err) + ")");
+  }
+};
+
+RegionWriter::RegionWriter(AtomicFile& file, std::uint64_t offset, std::uint64_t size, Fill fill)
+    : state_(std::make_unique<State>()) {
+  if (offset % kAlign != 0)
+    throw std::logic_error("RegionWriter: the offset is not a multiple of the alignment");
+  State& s = *state_;
+  s.temp_path = file.temp_path();
+  s.final_path = file.final_path();
+  s.cancel = file.cancel();
+  s.offset = offset;
+  s.size = size;
+  s.fill = std::move(fill);
+  try {
+    for (int w = 0; w < State::kWorkers; ++w) s.workers[w] = std::thread([&s, w] { s.run(w); });
+  } catch (...) {  // a thread that could not start
+    s.stop = true;
+    s.join();
+    throw;
+  }
+}
+
+RegionWriter::~RegionWriter() {
+  state_->stop = true;
+  state_->join();
+}
+
+void RegionWriter::finish() {
+  state_->join();
+  for (std::exception_ptr& e : state_->errors)
+    if (e) std::rethrow_exception(std::exchange(e, nullptr));
 }
 
 }  // namespace qjulia

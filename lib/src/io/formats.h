@@ -40,8 +40,10 @@ struct ExportData {
 };
 
 /// The ExportData of `mesh` for `path` (parameters checked and split, normals made unit length,
-/// colours clamped), as write_mesh() gives it to the writers.
-ExportData export_data(const std::string& path, const TriMesh& mesh, const ExportOptions& opts);
+/// colours clamped), as write_mesh() gives it to the writers. With `make_normals` false, a mesh
+/// without normals gets none (data.normals empty): the writer makes them (write_ply()).
+ExportData export_data(const std::string& path, const TriMesh& mesh, const ExportOptions& opts,
+                       bool make_normals = true);
 
 /// The pieces of the binary PLY and STL files, for write_ply(), write_stl() and the ranks of a
 /// distributed run, which write the same bytes in parts.
@@ -61,7 +63,14 @@ void put_stl_face(char* p, const std::array<float, 3>& a, const std::array<float
 
 void write_gltf(const std::string& path, const ExportData& data, bool binary);
 void write_obj(const std::string& path, const ExportData& data);
-void write_ply(const std::string& path, const ExportData& data);
+/// Makes the normals when `data` has none (area_weighted_normals()); meanwhile, when the run may
+/// use two threads and the face section has kPlyAheadLeast bytes or more after its first aligned
+/// byte, that part goes to the disk by threads of its own (RegionWriter). The bytes are the
+/// same either way.
+void write_ply(const std::string& path, ExportData& data);
+constexpr std::uint64_t kPlyAheadLeast = std::uint64_t{16} << 20;
+/// Bytes [first, first + n) of the face section of a binary PLY of `mesh`.
+void put_ply_face_bytes(const TriMesh& mesh, std::uint64_t first, std::size_t n, char* out);
 void write_stl(const std::string& path, const ExportData& data);
 void write_3mf(const std::string& path, const ExportData& data);
 

@@ -61,17 +61,15 @@ bool all_unit(const std::vector<std::array<float, 3>>& normals) {
 /// otherwise area-weighted face normals; (0, 0, 1) where nothing defines a direction.
 std::vector<std::array<float, 3>> unit_normals(const TriMesh& mesh) {
   const std::size_t nv = mesh.positions.size();
+  if (mesh.normals.size() != nv) return area_weighted_normals(mesh);  // none given
   std::vector<std::array<float, 3>> computed;  // made only when a given normal is unusable
   std::vector<std::array<float, 3>> out(nv);
-  const bool given = mesh.normals.size() == nv;
   for (std::size_t v = 0; v < nv; ++v) {
-    if (given) {
-      const auto& g = mesh.normals[v];
-      const double len = std::sqrt(double(g[0]) * g[0] + double(g[1]) * g[1] + double(g[2]) * g[2]);
-      if (len > 1e-300 && std::isfinite(len)) {
-        out[v] = {float(g[0] / len), float(g[1] / len), float(g[2] / len)};
-        continue;
-      }
+    const auto& g = mesh.normals[v];
+    const double len = std::sqrt(double(g[0]) * g[0] + double(g[1]) * g[1] + double(g[2]) * g[2]);
+    if (len > 1e-300 && std::isfinite(len)) {
+      out[v] = {float(g[0] / len), float(g[1] / len), float(g[2] / len)};
+      continue;
     }
     if (computed.empty()) computed = area_weighted_normals(mesh);
     out[v] = computed[v];
@@ -250,14 +248,19 @@ const char* extension_of(MeshFormat format) {
 
 namespace detail {
 
-ExportData export_data(const std::string& path, const TriMesh& mesh, const ExportOptions& opts) {
+ExportData export_data(const std::string& path, const TriMesh& mesh, const ExportOptions& opts,
+                       bool make_normals) {
   ExportData data{
       mesh, {}, {}, {}, {}, {}, opts.unit, std::string("qjulia ") + QJULIA_VERSION, opts.cancel};
   set_params(path, opts.params_json, data);
   const std::size_t nv = mesh.positions.size();
   const bool unit = mesh.normals.size() == nv && all_unit(mesh.normals);
-  if (!unit) data.made_normals = unit_normals(mesh);
-  data.normals = {unit ? mesh.normals.data() : data.made_normals.data(), nv};
+  if (unit) {
+    data.normals = {mesh.normals.data(), nv};
+  } else if (make_normals || !mesh.normals.empty()) {
+    data.made_normals = unit_normals(mesh);
+    data.normals = {data.made_normals.data(), nv};
+  }
   if (!mesh.colors.empty()) {
     data.colors.resize(mesh.colors.size());
     for (std::size_t v = 0; v < mesh.colors.size(); ++v)
@@ -277,7 +280,8 @@ void write_mesh(const std::string& path, const TriMesh& mesh, const ExportOption
   throw_if_cancelled(opts.cancel);
   if (opts.progress && !opts.progress(0.0)) throw Cancelled();
 
-  const detail::ExportData data = detail::export_data(path, mesh, opts);
+  // A PLY writer makes missing normals itself, while its faces are written.
+  detail::ExportData data = detail::export_data(path, mesh, opts, format != MeshFormat::kPly);
 
   switch (format) {
     case MeshFormat::kGlb:

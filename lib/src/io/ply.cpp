@@ -3,12 +3,16 @@
 // other elements skipped.
 #include <algorithm>
 #include <charconv>
+#include <cstdint>
 #include <cstring>
+#include <memory>
 
+#include "base/threads.h"
 #include "io/formats.h"
 #include "io/records.h"
 #include "io/text.h"
 #include "qjulia/base/atomic_file.h"
+#include "qjulia/base/mesh.h"
 
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
               "the PLY writer and reader assume a little-endian host");
@@ -47,16 +51,65 @@ void put_ply_face(char* p, const std::array<std::uint32_t, 3>& t) {
   std::memcpy(p + 1, t.data(), 12);
 }
 
-void write_ply(const std::string& path, const ExportData& data) {
+void put_ply_face_bytes(const TriMesh& mesh, std::uint64_t first, std::size_t n, char* out) {
+  std::uint64_t f = first / kPlyFaceRecord;
+  std::size_t skip = static_cast<std::size_t>(first % kPlyFaceRecord);
+  while (n > 0) {
+    if (skip == 0 && n >= kPlyFaceRecord) {
+      put_ply_face(out, mesh.triangles[f++]);
+      out += kPlyFaceRecord;
+      n -= kPlyFaceRecord;
+      continue;
+    }
+    char record[kPlyFaceRecord];  // a record cut by the range's start or end
+    put_ply_face(record, mesh.triangles[f++]);
+    const std::size_t k = std::min(n, kPlyFaceRecord - skip);
+    std::memcpy(out, record + skip, k);
+    out += k;
+    n -= k;
+    skip = 0;
+  }
+}
+
+void write_ply(const std::string& path, ExportData& data) {
   const TriMesh& mesh = data.mesh;
+  const std::size_t nv = mesh.positions.size(), nf = mesh.triangles.size();
   AtomicFile file(path, data.cancel);
+  const std::string header = ply_header(data, nv, nf);
+  const std::size_t record = ply_vertex_record(data);
+  // Without normals, the face section goes out while they are made: from its first aligned
+  // byte on by a RegionWriter (the disk takes about as long to write it as two threads take to
+  // make the normals of a large mesh), the bytes before that after the vertices.
+  const std::uint64_t faces_at = header.size() + std::uint64_t{nv} * record;
+  const std::uint64_t end = faces_at + std::uint64_t{nf} * kPlyFaceRecord;
+  const std::uint64_t ahead_at = (faces_at + RegionWriter::kAlignment - 1) /
+                                 RegionWriter::kAlignment * RegionWriter::kAlignment;
+  std::unique_ptr<RegionWriter> ahead;
+  if (data.normals.size() != nv) {
+    if (detail::threads_that_may_run() >= 2 && end >= ahead_at + kPlyAheadLeast) {
+      ahead = std::make_unique<RegionWriter>(
+          file, ahead_at, end - ahead_at,
+          [&mesh, skip = ahead_at - faces_at](char* out, std::uint64_t first, std::size_t n) {
+            put_ply_face_bytes(mesh, skip + first, n, out);
+          });
+    }
+    data.made_normals = area_weighted_normals(mesh);
+    data.normals = {data.made_normals.data(), nv};
+  }
   BufferedWriter out(file);
-  out.put(ply_header(data, mesh.positions.size(), mesh.triangles.size()));
-  put_records(out, mesh.positions.size(), ply_vertex_record(data),
-              [&](char* p, std::size_t v) { put_ply_vertex(p, data, v); });
-  put_records(out, mesh.triangles.size(), kPlyFaceRecord,
-              [&](char* p, std::size_t f) { put_ply_face(p, mesh.triangles[f]); });
-  out.flush();
+  out.put(header);
+  put_records(out, nv, record, [&](char* p, std::size_t v) { put_ply_vertex(p, data, v); });
+  if (ahead) {
+    const std::size_t head = static_cast<std::size_t>(ahead_at - faces_at);
+    put_ply_face_bytes(mesh, 0, head, out.reserve(head));
+    out.advance(head);
+    out.flush();
+    ahead->finish();
+  } else {
+    put_records(out, nf, kPlyFaceRecord,
+                [&](char* p, std::size_t f) { put_ply_face(p, mesh.triangles[f]); });
+    out.flush();
+  }
   file.commit();
 }
 

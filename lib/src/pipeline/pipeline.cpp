@@ -182,7 +182,7 @@ void finish_mesh(const Params& params, const PipelineOptions& opts, TriMesh& mes
     stats.self_intersections = count_self_intersections(mesh);
     timer.stop();
   }
-  if (mesh.normals.size() != mesh.positions.size()) compute_normals(mesh);
+  if (opts.normals && mesh.normals.size() != mesh.positions.size()) compute_normals(mesh);
 
   timer.start("measure");
   stats.measure = known ? std::move(*known) : measure(mesh);
@@ -280,8 +280,8 @@ PipelineResult run_pipeline(const Params& params, const PipelineOptions& opts) {
         known = std::move(estats.measure);
         std::vector<std::uint32_t>().swap(estats.face_component);  // not needed any more
         // The normals of what is left (eopts.normals): the same sums, in the memory the faces'
-        // components held.
-        if (mesh.normals.size() != mesh.positions.size()) compute_normals(mesh);
+        // components held; or by the writer.
+        if (opts.normals && mesh.normals.size() != mesh.positions.size()) compute_normals(mesh);
       } else {
         // Before the general clean(), which keeps the normals of the vertices it keeps (as when
         // the extraction made them).

@@ -3,6 +3,8 @@
 /// Write-to-temporary-then-rename, so a final file name never holds a half-written file. The
 /// one writer of every output file of the library and the CLI.
 #include <cstddef>
+#include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <utility>
@@ -64,6 +66,7 @@ class AtomicFile {
   void commit();
 
   const std::string& final_path() const { return final_path_; }
+  const CancelToken* cancel() const { return cancel_; }
 
  private:
   struct FreeStage {
@@ -122,6 +125,32 @@ class BufferedWriter {
   char* cur_ = nullptr;
   char* end_ = nullptr;
   std::string large_;  // a reservation larger than the stage
+};
+
+/// Bytes [offset, offset + size) of an AtomicFile, written by two threads of their own while the
+/// file's owner goes on with other work and appends the bytes before `offset` (a multiple of
+/// kAlignment). The threads take the blocks (AtomicFile::kStageBytes each) in turn, so one makes
+/// its block while the other's goes out; each writes through a descriptor of its own, directly
+/// to the disk where the file system allows it, and checks the file's cancel token before each
+/// block. Waiting (finish()) must come before the file's commit(); the destructor stops the
+/// threads and waits for them (the file is then given up with them).
+class RegionWriter {
+ public:
+  static constexpr std::size_t kAlignment = 4096;
+  /// fill(out, first, n) puts the region's bytes [first, first + n) at out.
+  using Fill = std::function<void(char* out, std::uint64_t first, std::size_t n)>;
+  /// Starts the threads. @throws std::logic_error when `offset` is not a multiple of kAlignment.
+  RegionWriter(AtomicFile& file, std::uint64_t offset, std::uint64_t size, Fill fill);
+  ~RegionWriter();
+  RegionWriter(const RegionWriter&) = delete;
+  RegionWriter& operator=(const RegionWriter&) = delete;
+  /// Waits until the region is written. @throws std::runtime_error naming the path on a write
+  /// error (as AtomicFile::write()), Cancelled when the token was set, or what `fill` threw.
+  void finish();
+
+ private:
+  struct State;
+  std::unique_ptr<State> state_;
 };
 
 }  // namespace qjulia

@@ -38,6 +38,10 @@ struct PipelineOptions {
   /// estimate, and so that a mesh too large for its format is refused before the work.
   std::vector<MeshFormat> outputs;
   bool preview = false;
+  /// False: the mesh may come without normals where making them is left to the writer (a PLY
+  /// writer makes them while its faces go to the disk); they are then the same. A clean() of a
+  /// mesh that the extraction could not measure still makes them first, and keeps them.
+  bool normals = true;
 };
 
 /// Figures of one run, the content of --stats.
