@@ -170,6 +170,11 @@ struct Brick {
     const std::uint64_t below = known.w[p >> 6] & ((std::uint64_t{1} << (p & 63)) - 1);
     return &packed[r + static_cast<std::size_t>(popcount64(below))];
   }
+  /// Asks for the cache lines where() reads before the values (a neighbour's, ahead of a visit).
+  void prefetch_where() const {
+    __builtin_prefetch(&full);
+    __builtin_prefetch(&rank[sizeof rank / sizeof rank[0] - 1]);
+  }
   /// Where the value of point p goes (the brick must be unpacked).
   float* slot(int p) { return &full[p]; }
   /// Values as an array of all 9^3 points, for sampling the brick.
