@@ -97,18 +97,26 @@ void write_in_pieces(qjulia::AtomicFile& f, const std::string& bytes) {
   }
 }
 
-TEST(AtomicFile, ALargeFileHoldsExactlyItsBytesOnDiskATmpfsAndARamfs) {
+// A folder on the disk, a tmpfs and a ramfs (which refuses O_DIRECT: every byte through the
+// page cache), for the same file in each.
+struct ThreeFileSystems {
   TempDir dir;
-  Tmpfs disk("80m");
-  ASSERT_TRUE(disk.mounted());
-  Tmpfs ram("80m", "ramfs");  // refuses O_DIRECT: every byte through the page cache
-  ASSERT_TRUE(ram.mounted());
+  Tmpfs disk{"80m"};
+  Tmpfs ram{"80m", "ramfs"};
+  bool mounted() const { return disk.mounted() && ram.mounted(); }
+  std::vector<std::string> files(const std::string& name) const {
+    return {dir.file(name), disk.file(name), ram.file(name)};
+  }
+};
+
+TEST(AtomicFile, ALargeFileHoldsExactlyItsBytesOnDiskATmpfsAndARamfs) {
+  const ThreeFileSystems places;
+  ASSERT_TRUE(places.mounted());
   // Below one stage, exactly three stages, and twelve stages and a partial one.
   constexpr std::size_t kStage = qjulia::AtomicFile::kStageBytes;
   for (const std::size_t size : {std::size_t(100000), 3 * kStage, 12 * kStage + 12345}) {
     const std::string bytes = big_bytes(size);
-    for (const std::string& path :
-         {dir.file("big.bin"), disk.file("big.bin"), ram.file("big.bin")}) {
+    for (const std::string& path : places.files("big.bin")) {
       qjulia::AtomicFile f(path);
       write_in_pieces(f, bytes);
       f.commit();
@@ -212,19 +220,15 @@ TEST(AtomicFile, AFileGivenUpWithABlockInFlightLeavesNothingAndTheOldFile) {
 // bytes before it: below one block, whole blocks, and blocks with a partial one, after prefixes
 // of one and of several stages; the file holds exactly the bytes of both.
 TEST(AtomicFile, ARegionWrittenByThreadsOfItsOwnLandsAtItsOffsetOnDiskATmpfsAndARamfs) {
-  TempDir dir;
-  Tmpfs disk("80m");
-  ASSERT_TRUE(disk.mounted());
-  Tmpfs ram("80m", "ramfs");  // refuses O_DIRECT: every byte through the page cache
-  ASSERT_TRUE(ram.mounted());
+  const ThreeFileSystems places;
+  ASSERT_TRUE(places.mounted());
   constexpr std::size_t kStage = qjulia::AtomicFile::kStageBytes;
   constexpr std::size_t kAlign = qjulia::RegionWriter::kAlignment;
   const std::pair<std::size_t, std::size_t> cases[] = {
       {kAlign, 100000}, {3 * kStage, 3 * kStage}, {5 * kAlign, 7 * kStage + 12345}};
   for (const auto& [before, size] : cases) {
     const std::string bytes = big_bytes(before + size);
-    for (const std::string& path :
-         {dir.file("big.bin"), disk.file("big.bin"), ram.file("big.bin")}) {
+    for (const std::string& path : places.files("big.bin")) {
       qjulia::AtomicFile f(path);
       std::atomic<std::size_t> filled{0};
       qjulia::RegionWriter region(f, before, size,
@@ -285,44 +289,35 @@ TEST(AtomicFile, ARegionGivenUpCancelledOrFailingLeavesNothingAndTheOldFile) {
   }
 }
 
-TEST(AtomicFile, ARegionOnADiskThatFillsIsARuntimeErrorAndLeavesNoFile) {
-  Tmpfs disk("40m");
-  ASSERT_TRUE(disk.mounted());
-  const std::string path = disk.file("big.bin");
-  const std::string bytes = big_bytes(std::size_t(60) << 20);
-  try {
-    qjulia::AtomicFile f(path);
-    // The whole file is the region: only the region's writers meet the full disk.
-    qjulia::RegionWriter region(f, 0, bytes.size(),
-                                [&](char* out, std::uint64_t first, std::size_t n) {
-                                  std::memcpy(out, bytes.data() + first, n);
-                                });
-    region.finish();
-    f.commit();
-    ADD_FAILURE() << "written: " << path;
-  } catch (const InvalidInput& e) {
-    ADD_FAILURE() << "a full disk is not bad input: " << e.what();
-  } catch (const std::runtime_error& e) {
-    EXPECT_EQ(std::string(e.what()), path + ": write failed (No space left on device)");
-  }
-  EXPECT_TRUE(disk.dir().names().empty()) << disk.dir().names().front();
-}
-
+// Through the stages, and as a region written by threads of its own (the whole file, so that
+// only they meet the full disk).
 TEST(AtomicFile, ADiskThatFillsAfterTheFirstBlocksIsARuntimeErrorAndLeavesNoFile) {
   Tmpfs disk("40m");
   ASSERT_TRUE(disk.mounted());
   const std::string path = disk.file("big.bin");
-  try {
-    qjulia::AtomicFile f(path);
-    write_in_pieces(f, big_bytes(std::size_t(60) << 20));
-    f.commit();
-    ADD_FAILURE() << "written: " << path;
-  } catch (const InvalidInput& e) {
-    ADD_FAILURE() << "a full disk is not bad input: " << e.what();
-  } catch (const std::runtime_error& e) {
-    EXPECT_EQ(std::string(e.what()), path + ": write failed (No space left on device)");
+  const std::string bytes = big_bytes(std::size_t(60) << 20);
+  for (const bool region : {false, true}) {
+    SCOPED_TRACE(region ? "a region" : "the stages");
+    try {
+      qjulia::AtomicFile f(path);
+      if (region) {
+        qjulia::RegionWriter r(f, 0, bytes.size(),
+                               [&](char* out, std::uint64_t first, std::size_t n) {
+                                 std::memcpy(out, bytes.data() + first, n);
+                               });
+        r.finish();
+      } else {
+        write_in_pieces(f, bytes);
+      }
+      f.commit();
+      ADD_FAILURE() << "written: " << path;
+    } catch (const InvalidInput& e) {
+      ADD_FAILURE() << "a full disk is not bad input: " << e.what();
+    } catch (const std::runtime_error& e) {
+      EXPECT_EQ(std::string(e.what()), path + ": write failed (No space left on device)");
+    }
+    EXPECT_TRUE(disk.dir().names().empty()) << disk.dir().names().front();
   }
-  EXPECT_TRUE(disk.dir().names().empty()) << disk.dir().names().front();
 }
 
 TEST(AtomicFile, AFullDiskIsARuntimeErrorAndLeavesNoTemporaryFile) {

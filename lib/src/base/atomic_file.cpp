@@ -28,6 +28,31 @@ static_assert(kAlign == RegionWriter::kAlignment);
 
 std::string errno_text(int err) { return std::strerror(err); }
 
+// Writes [p, p + size) to `fd`: at *at (advanced) with pwrite(), or at the descriptor's position
+// when `at` is null. While `direct` (O_DIRECT on), a direct write the file system refuses
+// (EINVAL) or one that comes short calls buffered(), which turns O_DIRECT off and clears
+// `direct`, and the rest goes through the page cache. Any other error calls fail(errno), which
+// throws.
+template <class Buffered, class Fail>
+void write_all(int fd, const char* p, std::size_t size, std::uint64_t* at, const bool& direct,
+               Buffered&& buffered, Fail&& fail) {
+  while (size > 0) {
+    const ssize_t n = at ? ::pwrite(fd, p, size, static_cast<off_t>(*at)) : ::write(fd, p, size);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      if (errno == EINVAL && direct) {  // the file system refuses direct writes after all
+        buffered();
+        continue;
+      }
+      fail(errno);
+    }
+    p += n;
+    size -= static_cast<std::size_t>(n);
+    if (at) *at += static_cast<std::uint64_t>(n);
+    if (direct && size > 0 && n % static_cast<ssize_t>(kAlign) != 0) buffered();  // short
+  }
+}
+
 std::string directory_of(const std::string& path) {
   const auto slash = path.find_last_of('/');
   if (slash == std::string::npos) return ".";
@@ -232,20 +257,11 @@ void AtomicFile::buffered() {
 }
 
 void AtomicFile::write_out(const char* p, std::size_t size) {
-  while (size > 0) {
-    const ssize_t n = ::write(fd_, p, size);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      if (errno == EINVAL && direct_) {  // the file system refuses direct writes after all
-        buffered();
-        continue;
-      }
-      throw std::runtime_error(final_path_ + ": write failed (" + errno_text(errno) + ")");
-    }
-    p += n;
-    size -= static_cast<std::size_t>(n);
-    if (direct_ && size > 0 && n % kAlign != 0) buffered();  // a short direct write
-  }
+  write_all(
+      fd_, p, size, nullptr, direct_, [this] { buffered(); },
+      [this](int err) {
+        throw std::runtime_error(final_path_ + ": write failed (" + errno_text(err) + ")");
+      });
 }
 
 void AtomicFile::close_for_external() {
@@ -362,20 +378,8 @@ struct RegionWriter::State {
             static_cast<std::size_t>(std::min<std::uint64_t>(kBlock, size - done));
         fill(buffer, done, n);
         if (direct && n % kAlign != 0) buffered();  // the region's last, partial block
-        for (std::size_t put = 0; put < n;) {
-          const ssize_t w =
-              ::pwrite(fd, buffer + put, n - put, static_cast<off_t>(offset + done + put));
-          if (w < 0) {
-            if (errno == EINTR) continue;
-            if (errno == EINVAL && direct) {  // the file system refuses direct writes after all
-              buffered();
-              continue;
-            }
-            fail(errno);
-          }
-          put += static_cast<std::size_t>(w);
-          if (direct && put < n && w % static_cast<ssize_t>(kAlign) != 0) buffered();  // short
-        }
+        std::uint64_t at = offset + done;
+        write_all(fd, buffer, n, &at, direct, buffered, [this](int err) { fail(err); });
       }
       const int closing = fd;
       fd = -1;
