@@ -9,10 +9,10 @@
 #include <cmath>
 #include <functional>
 #include <limits>
-#include <mutex>
 #include <stdexcept>
 
 #include "base/distribution.h"
+#include "base/stage_progress.h"
 #include "qjulia/base/error.h"
 
 namespace qjulia::detail {
@@ -966,8 +966,7 @@ struct BrickSampler::Sampling {
   const int lowest_plane = -1, highest_plane;
   std::vector<std::array<int, 3>>& interior;  // the sampler's interior blocks
   BrickMap bricks;
-  std::mutex report_mutex;  // held by the reports of parallel work
-  double reported = 0;      // the last progress reported
+  RisingProgress progress;  // reported from the steps of run() and from parallel work
   // The coarse lattice (the sparse path): its points and the centres of its cells, by
   // lattice_index(); points -1 .. hi + 1 per axis, centres -1 .. hi.
   int hi[3] = {0, 0, 0};
@@ -986,7 +985,8 @@ struct BrickSampler::Sampling {
         rank(dist ? dist->comm->rank() : 0),
         ranks(dist ? dist->comm->size() : 1),
         highest_plane((geo.points[0] - 1) / kBrick),
-        interior(interior) {
+        interior(interior),
+        progress(opts.progress, opts.cancel) {
     // The dense path evaluates every point of every brick itself (the reference the sparse path
     // is tested against); the sparse path shares points between neighbours.
     if (!dense_path()) im.map = &bricks;
@@ -1000,16 +1000,8 @@ struct BrickSampler::Sampling {
     return opts.dense || std::max({P[0], P[1], P[2]}) <= 2 * kCoarse;
   }
 
-  // Throws Cancelled when asked to stop; reports progress f, unless it is below the last report:
-  // in parallel work a thread that counted its bricks earlier may reach the lock later. (Called
-  // by one thread at a time: from the steps of run(), or under report_mutex.)
-  void report(double f) {
-    im.check_cancel();
-    f = std::min(1.0, f);
-    if (f < reported) return;
-    reported = f;
-    if (opts.progress && !opts.progress(f)) throw Cancelled();
-  }
+  // Throws Cancelled when asked to stop; reports progress f (from any thread).
+  void report(double f) { progress.report(std::min(1.0, f)); }
 
   // A brick by key, created when new and linked with its neighbours both ways.
   Brick& get(std::uint64_t key) {
@@ -1222,10 +1214,7 @@ struct BrickSampler::Sampling {
       thread_local Batch b;
       sample_dense(*list[n], b);
       const std::size_t k = ++done;
-      if (k % 256 == 0) {
-        std::lock_guard<std::mutex> lock(report_mutex);
-        report(0.9 * k / list.size());
-      }
+      if (k % 256 == 0) report(0.9 * k / list.size());
     });
   }
 
@@ -1512,10 +1501,7 @@ struct BrickSampler::Sampling {
       im.visit(group, n, b, outboxes.local());
     });
     visits += members.size();
-    {
-      std::lock_guard<std::mutex> lock(report_mutex);
-      report(0.1 + 0.75 * std::min(1.0, double(visits) / (1.25 * first_round + 1)));
-    }
+    report(0.1 + 0.75 * std::min(1.0, double(visits) / (1.25 * first_round + 1)));
     // Bricks asked for that do not exist yet; then the schedules, by class.
     std::vector<Request> missing, remote;
     for (Outbox& o : outboxes) {

@@ -8,9 +8,9 @@
 
 #include "base/geometry.h"
 #include "base/mesh_check.h"
+#include "base/stage_progress.h"
 #include "base/union_find.h"
 #include "base/weld.h"
-#include "mesh/stage_progress.h"
 #include "qjulia/base/error.h"
 #include "qjulia/base/validate.h"
 

@@ -19,8 +19,8 @@
 #include "base/geometry.h"
 #include "base/hash.h"
 #include "base/mesh_json.h"
+#include "base/stage_progress.h"
 #include "base/weld.h"
-#include "mesh/stage_progress.h"
 #include "qjulia/base/error.h"
 #include "qjulia/base/validate.h"
 

@@ -29,10 +29,10 @@
 
 #include "base/geometry.h"
 #include "base/mesh_check.h"
+#include "base/stage_progress.h"
 #include "mesh/collapse.h"
 #include "mesh/decimate_openmesh.h"
 #include "mesh/hausdorff.h"
-#include "mesh/stage_progress.h"
 #include "qjulia/base/error.h"
 #include "qjulia/base/validate.h"
 

@@ -4,12 +4,12 @@
 #include <string>
 
 #include "base/mesh_check.h"
-#include "mesh/stage_progress.h"
+#include "base/stage_progress.h"
+#include "base/vdb_module.h"
 #include "qjulia/base/error.h"
 #include "qjulia/base/validate.h"
 #include "qjulia/mesh/clean.h"
 #include "qjulia/mesh/print.h"
-#include "base/vdb_module.h"
 
 namespace qjulia {
 

@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <mutex>
 #include <numeric>
 #include <stdexcept>
 #include <unordered_map>
@@ -15,6 +14,7 @@
 #include "base/distribution.h"
 #include "base/first_touch.h"
 #include "base/geometry.h"
+#include "base/stage_progress.h"
 #include "base/union_find.h"
 #include "grid/brick_pool.h"
 #include "grid/grid_impl.h"
@@ -328,8 +328,7 @@ struct BrickMesher {
   std::size_t nb = 0;  // own bricks
   std::size_t nv = 0;  // own bricks, then the up rank's first plane
   detail::BrickMeshOptions bopts;
-  std::mutex report_mutex;  // held by a parallel pass's reports
-  double reported = 0;      // the last progress reported
+  detail::RisingProgress progress;  // reported from run() and from the parallel passes
   // Per brick: its edge vertices (pass one), its plan (pass two), its vertices and faces in the
   // mesh (the numbering), its border half-edges (pass three) and its measures.
   std::vector<detail::BrickVertices> verts;
@@ -375,7 +374,8 @@ struct BrickMesher {
         opts(opts),
         stats(stats),
         part(part),
-        comm(part ? part->comm : nullptr) {
+        comm(part ? part->comm : nullptr),
+        progress(opts.progress, opts.cancel) {
     bopts.tolerance = opts.tolerance;
     bopts.max_refine_steps = opts.max_refine_steps;
   }
@@ -387,15 +387,8 @@ struct BrickMesher {
   // before the budget is known).
   void give_back(std::size_t coming) const { give_back_memory(opts, budget, coming); }
 
-  // Throws Cancelled when asked to stop; reports progress f, unless it is below the last report:
-  // in a parallel pass a thread that counted its bricks earlier may reach the lock later. (Called
-  // by one thread at a time: from run(), or under report_mutex.)
-  void report(double f) {
-    if (opts.cancel && opts.cancel->requested()) throw Cancelled();
-    if (f < reported) return;
-    reported = f;
-    if (opts.progress && !opts.progress(f)) throw Cancelled();
-  }
+  // Throws Cancelled when asked to stop; reports progress f (from any thread).
+  void report(double f) { progress.report(f); }
 
   // Runs f(i) for each own brick in parallel, reporting progress from `from` to `to`.
   template <class F>
@@ -406,10 +399,8 @@ struct BrickMesher {
                         if (opts.cancel && opts.cancel->requested()) throw Cancelled();
                         for (std::size_t i = r.begin(); i != r.end(); ++i) f(i);
                         const std::size_t k = done += r.size();
-                        if ((k / 64) != ((k - r.size()) / 64)) {
-                          std::lock_guard<std::mutex> lock(report_mutex);
+                        if ((k / 64) != ((k - r.size()) / 64))
                           report(from + (to - from) * k / std::max<std::size_t>(nb, 1));
-                        }
                       });
   }
 
@@ -445,10 +436,7 @@ struct BrickMesher {
               for (std::size_t k = 0; k < n; ++k) impl.bricks[i + k].reset();
           }
           const std::size_t k = done += r.size();
-          if ((k / 64) != ((k - r.size()) / 64)) {
-            std::lock_guard<std::mutex> lock(report_mutex);
-            report(0.35 * k / std::max<std::size_t>(nb, 1));
-          }
+          if ((k / 64) != ((k - r.size()) / 64)) report(0.35 * k / std::max<std::size_t>(nb, 1));
         },
         tbb::simple_partitioner());
     if (release) {
