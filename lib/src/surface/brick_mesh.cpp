@@ -261,8 +261,7 @@ void brick_vertices(const Brick* const* bricks, std::size_t n, const Solid& soli
       float v[8];
       values.cell(c, v);
       o.cells.push_back((static_cast<std::uint32_t>(c) << 16) | cell_case_index(v));
-      int inside = 0;
-      for (int d = 0; d < 8; ++d) inside |= (v[d] <= 0) << d;
+      const int inside = signs_of(v);
       const int first = 3 * point_index(c / 64, (c / 8) % 8, c % 8);
       for_each_bit(et.crossing[inside], 0, [&](int e) { seen.set(first + et.offset[e]); });
     });

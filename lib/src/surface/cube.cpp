@@ -135,12 +135,6 @@ CellLoops loops_of_case(int signs, int saddles) {
   return out;
 }
 
-int signs_of(const float v[8]) {
-  int s = 0;
-  for (int d = 0; d < 8; ++d) s |= (v[d] <= 0) << d;
-  return s;
-}
-
 // Faces with four crossings for each sign pattern.
 struct CaseTable {
   std::uint8_t ambiguous[256] = {};
@@ -293,6 +287,12 @@ bool loop_embedded(const CellCase& cc, int L, const std::array<double, 3>* pts,
     ok &= pts[a][j] < pts[b][j];
   }
   return ok;
+}
+
+int signs_of(const float v[8]) {
+  int s = 0;
+  for (int d = 0; d < 8; ++d) s |= (v[d] <= 0) << d;
+  return s;
 }
 
 std::uint16_t cell_case_index(const float v[8]) {

@@ -57,6 +57,9 @@ struct CellCase {
   std::uint8_t view_order[4][12][2] = {};
 };
 
+/// The corners of a cell with corner values v that are inside (v <= 0), as bits (corner d is
+/// bit d).
+int signs_of(const float v[8]);
 /// The case of a cell with corner values v.
 const CellCase& cell_case(const float v[8]);
 /// The number of that case, and the case of a number.
