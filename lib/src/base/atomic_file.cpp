@@ -28,6 +28,19 @@ static_assert(kAlign == RegionWriter::kAlignment);
 
 std::string errno_text(int err) { return std::strerror(err); }
 
+// A block of kBlock bytes aligned for O_DIRECT, to free with std::free. @throws std::bad_alloc
+char* aligned_block() {
+  char* p = static_cast<char*>(std::aligned_alloc(kAlign, kBlock));
+  if (!p) throw std::bad_alloc();
+  return p;
+}
+
+// Turns O_DIRECT on or off for `fd`; false when fcntl fails.
+bool set_direct(int fd, bool on) {
+  const int flags = ::fcntl(fd, F_GETFL);
+  return flags >= 0 && ::fcntl(fd, F_SETFL, on ? flags | O_DIRECT : flags & ~O_DIRECT) == 0;
+}
+
 // Writes [p, p + size) to `fd`: at *at (advanced) with pwrite(), or at the descriptor's position
 // when `at` is null. While `direct` (O_DIRECT on), a direct write the file system refuses
 // (EINVAL) or one that comes short calls buffered(), which turns O_DIRECT off and clears
@@ -177,8 +190,7 @@ std::pair<char*, char*> AtomicFile::room(std::size_t n) {
   check_open();
   if (n > kBlock) throw std::logic_error("AtomicFile::room: more than the stage");
   if (!stage_) {
-    stage_.reset(static_cast<char*>(std::aligned_alloc(kAlign, kBlock)));
-    if (!stage_) throw std::bad_alloc();
+    stage_.reset(aligned_block());
   }
   if (kBlock - staged_ < n) spill(n);
   return {stage_.get() + staged_, stage_.get() + kBlock};
@@ -193,7 +205,7 @@ void AtomicFile::spill(std::size_t n) {
   finish_pending();
   if (!direct_tried_) {
     direct_tried_ = true;
-    direct_ = set_direct(true);
+    direct_ = set_direct(fd_, true);
   }
   const std::size_t head = direct_ ? staged_ / kAlign * kAlign : staged_;
   const std::size_t tail = staged_ - head;
@@ -213,8 +225,7 @@ void AtomicFile::spill(std::size_t n) {
   }
   // The head goes out from this stage while the writer goes on in the spare one, from the tail.
   if (!spare_) {
-    spare_.reset(static_cast<char*>(std::aligned_alloc(kAlign, kBlock)));
-    if (!spare_) throw std::bad_alloc();
+    spare_.reset(aligned_block());
   }
   if (tail > 0) std::memcpy(spare_.get(), stage_.get() + head, tail);
   if (!pending_) pending_ = std::make_unique<Pending>();
@@ -244,15 +255,10 @@ void AtomicFile::flush_stage() {
   staged_ = 0;
 }
 
-bool AtomicFile::set_direct(bool on) {
-  const int flags = ::fcntl(fd_, F_GETFL);
-  return flags >= 0 && ::fcntl(fd_, F_SETFL, on ? flags | O_DIRECT : flags & ~O_DIRECT) == 0;
-}
-
 void AtomicFile::buffered() {
   if (!direct_) return;
   direct_ = false;
-  if (!set_direct(false))
+  if (!set_direct(fd_, false))
     throw std::runtime_error(final_path_ + ": write failed (" + errno_text(errno) + ")");
 }
 
@@ -363,11 +369,9 @@ struct RegionWriter::State {
       bool direct = fd >= 0;
       if (fd < 0) fd = ::open(temp_path.c_str(), O_WRONLY | O_CLOEXEC);  // no O_DIRECT there
       if (fd < 0) fail(errno);
-      buffer = static_cast<char*>(std::aligned_alloc(kAlign, kBlock));
-      if (!buffer) throw std::bad_alloc();
+      buffer = aligned_block();
       auto buffered = [&] {
-        const int flags = ::fcntl(fd, F_GETFL);
-        if (flags < 0 || ::fcntl(fd, F_SETFL, flags & ~O_DIRECT) != 0) fail(errno);
+        if (!set_direct(fd, false)) fail(errno);
         direct = false;
       };
       for (std::uint64_t done = std::uint64_t{kBlock} * worker; done < size;

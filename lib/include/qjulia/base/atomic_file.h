@@ -74,7 +74,6 @@ class AtomicFile {
   };
   void check_open() const;
   void write_out(const char* p, std::size_t size);
-  bool set_direct(bool on);  // O_DIRECT on or off; false when fcntl fails
   void buffered();           // the rest through the page cache (O_DIRECT off)
   void flush_stage();
   void spill(std::size_t n);  // writes out the stage's whole aligned blocks to make room for n
