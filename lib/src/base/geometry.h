@@ -64,16 +64,18 @@ std::array<float, 3> area_normal(const Triangle& t, const PositionOf& position) 
 }
 
 /// Adds each triangle's area-weighted normal (|n| = 2 * area) to its corners' float sums, in
-/// triangle order: `position(v)` gives corner v, `sum(v)` its sum or null (not summed here).
-/// One process and the ranks of a distributed run add in this same order, so they agree bit for
-/// bit.
+/// triangle order: `position(v)` gives corner v, `sum(v)` its sum or null (not summed here; a
+/// triangle with no corner summed is skipped). One process and the ranks of a distributed run,
+/// and the threads of area_weighted_normals(), add in this same order, so they agree bit for bit.
 template <class Triangles, class PositionOf, class SumOf>
 void add_area_normals(const Triangles& triangles, const PositionOf& position, const SumOf& sum) {
   for (const auto& t : triangles) {
+    std::array<float, 3>* const s[3] = {sum(t[0]), sum(t[1]), sum(t[2])};
+    if (!s[0] && !s[1] && !s[2]) continue;
     const std::array<float, 3> n = area_normal(t, position);
-    for (auto v : t)
-      if (std::array<float, 3>* s = sum(v))
-        for (int k = 0; k < 3; ++k) (*s)[k] += n[k];
+    for (std::array<float, 3>* c : s)
+      if (c)
+        for (int k = 0; k < 3; ++k) (*c)[k] += n[k];
   }
 }
 

@@ -195,16 +195,17 @@ std::vector<std::array<float, 3>> area_weighted_normals(const TriMesh& mesh) {
   const std::size_t lanes =
       std::max<std::size_t>(1, std::min(detail::threads_that_may_run(), nv / kLeast));
   // Adds the normals of faces [first, last) to the vertices in [lo, hi).
+  struct Faces {
+    const std::array<std::uint32_t, 3>* first;
+    const std::array<std::uint32_t, 3>* last;
+    auto begin() const { return first; }
+    auto end() const { return last; }
+  };
   auto add = [&](std::size_t first, std::size_t last, std::uint32_t lo, std::uint32_t hi) {
-    for (std::size_t f = first; f < last; ++f) {
-      const auto& t = mesh.triangles[f];
-      const bool in[3] = {t[0] - lo < hi - lo, t[1] - lo < hi - lo, t[2] - lo < hi - lo};
-      if (!(in[0] || in[1] || in[2])) continue;
-      const std::array<float, 3> n = detail::area_normal(t, position);
-      for (int c = 0; c < 3; ++c)
-        if (in[c])
-          for (int k = 0; k < 3; ++k) normals[t[c]][k] += n[k];
-    }
+    const auto* t = mesh.triangles.data();
+    detail::add_area_normals(Faces{t + first, t + last}, position, [&](std::uint32_t v) {
+      return v - lo < hi - lo ? &normals[v] : nullptr;
+    });
   };
   if (lanes == 1) {
     add(0, nf, 0, static_cast<std::uint32_t>(nv));
